@@ -1,0 +1,63 @@
+# autocal — the commands a new user runs on a fresh Debian 12 machine.
+#   make demo   deps + build + the main job (see README)
+#   make test   deps + build + every gtest and rostest; ends with "N passed, N failed"
+#   make deps   installs the Debian packages (apt-get; prints the command when not root)
+#   make build  Release build into build/, leaves build/devel/setup.bash
+#   make bench  the benchmarks; writes BENCHMARKS.md figures under build/bench/
+
+SHELL := /bin/bash
+# A pyenv python3 may come first on PATH and lacks ROS's Python modules: use Debian's.
+export PATH := /usr/bin:/bin:$(PATH)
+export PYTHONNOUSERSITE := 1
+# Make catkin (and rostest) find this package in the devel space and the source tree.
+BUILD_DIR ?= build
+JOBS ?= 2
+
+DEBS := build-essential cmake catkin ros-base-dev libroscpp-dev python3-rostest librostest-dev \
+  python3-roslaunch rosbash python3-rosbag librosbag-dev python3-rosnode python3-rostopic \
+  libcv-bridge-dev libcamera-calibration-parsers-dev libtf2-ros-dev libsensor-msgs-dev \
+  libgeometry-msgs-dev libnav-msgs-dev libstd-srvs-dev ros-message-generation \
+  libbox2d-dev libapriltag-dev libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev \
+  libbenchmark-dev opencv-doc python3-camera-calibration python3-opencv python3-cv-bridge \
+  python3-yaml python3-numpy
+
+.PHONY: all deps build test demo bench clean
+
+all: build
+
+deps:
+	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -z "$$missing" ]; then echo "deps: all Debian packages present"; exit 0; fi; \
+	echo "deps: missing:" $$missing; \
+	if [ "$$(id -u)" = 0 ]; then \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get update && apt-get install -y --no-install-recommends $$missing; \
+	else \
+	  echo "deps: not root; run:"; \
+	  echo "  sudo apt-get update && sudo apt-get install -y --no-install-recommends $$missing"; \
+	  exit 1; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+	  -DCATKIN_ENABLE_TESTING=ON
+	cmake --build $(BUILD_DIR) -- -j$(JOBS)
+	cmake --build $(BUILD_DIR) --target tests -- -j$(JOBS)
+
+test: build
+	@rm -rf $(BUILD_DIR)/test_results
+	@source $(BUILD_DIR)/devel/setup.bash && \
+	  ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home \
+	  cmake --build $(BUILD_DIR) --target run_tests -- -j1 > $(BUILD_DIR)/run_tests.log 2>&1; \
+	  status=$$?; /usr/bin/python3 scripts/test_summary.py $(BUILD_DIR)/test_results $(BUILD_DIR)/run_tests.log $$status
+
+demo: build
+	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
+	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home scripts/demo.sh
+
+bench: build
+	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
+	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home scripts/bench.sh
+
+clean:
+	rm -rf $(BUILD_DIR)

@@ -1,0 +1,1 @@
+# camera: core sources, nodes, commands and tests (included from CMakeLists.txt).

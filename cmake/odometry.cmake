@@ -1,0 +1,1 @@
+# odometry: core sources, nodes, commands and tests (included from CMakeLists.txt).

@@ -1,0 +1,1 @@
+# sim: core sources, nodes, commands and tests (included from CMakeLists.txt).

@@ -1,0 +1,40 @@
+// Typed errors of the autocal core. The core throws them with a message a user can act on; a node
+// or command catches them once, logs, stops the wheels, reports FAILED and exits non-zero.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace autocal {
+
+/// Base of every error the core throws on purpose.
+class Error : public std::runtime_error {
+ public:
+  explicit Error(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// A configuration file or parameter is missing, malformed or out of range.
+class ConfigError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Input data (images, bags, measurements) cannot be used.
+class InputError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A calibration ran but its result failed the quality gate or is not determined by the data.
+class CalibrationError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Reading or writing a file failed.
+class IoError : public Error {
+ public:
+  using Error::Error;
+};
+
+}  // namespace autocal

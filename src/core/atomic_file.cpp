@@ -1,0 +1,88 @@
+#include "autocal/io/atomic_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace fs = std::filesystem;
+
+namespace {
+std::string errnoText() { return std::strerror(errno); }
+}  // namespace
+
+void writeFileAtomically(const std::string& path, const std::string& contents,
+                         const AtomicWriteOptions& options) {
+  const fs::path target(path);
+  if (target.filename().empty()) throw IoError("cannot write '" + path + "': not a file name");
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (options.create_directories) {
+    fs::create_directories(dir, ec);
+    if (ec) throw IoError("cannot create directory '" + dir.string() + "': " + ec.message());
+  }
+  std::string tmpl = (dir / ("." + target.filename().string() + ".tmpXXXXXX")).string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw IoError("cannot create a temporary file in '" + dir.string() + "': " + errnoText());
+  const std::string tmp = tmpl;
+  auto fail = [&](const std::string& what) {
+    const std::string reason = errnoText();
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw IoError(what + " '" + tmp + "' for '" + path + "': " + reason);
+  };
+  size_t written = 0;
+  while (written < contents.size()) {
+    const ssize_t n = ::write(fd, contents.data() + written, contents.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail("cannot write");
+    }
+    written += static_cast<size_t>(n);
+  }
+  if (::fchmod(fd, 0644) != 0) fail("cannot set permissions of");
+  if (::fsync(fd) != 0) fail("cannot flush");
+  if (::close(fd) != 0) {
+    const std::string reason = errnoText();
+    ::unlink(tmp.c_str());
+    throw IoError("cannot close '" + tmp + "': " + reason);
+  }
+  if (!options.backup_suffix.empty() && fs::exists(target, ec)) {
+    fs::copy_file(target, path + options.backup_suffix, fs::copy_options::overwrite_existing, ec);
+    if (ec) {
+      ::unlink(tmp.c_str());
+      throw IoError("cannot keep the previous '" + path + "' as '" + path + options.backup_suffix +
+                    "': " + ec.message());
+    }
+  }
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string reason = errnoText();
+    ::unlink(tmp.c_str());
+    throw IoError("cannot rename '" + tmp + "' to '" + path + "': " + reason);
+  }
+  // Make the rename itself durable.
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+}
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open '" + path + "': " + errnoText());
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw IoError("cannot read '" + path + "'");
+  return ss.str();
+}
+
+}  // namespace autocal

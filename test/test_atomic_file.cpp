@@ -1,0 +1,68 @@
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class AtomicFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("autocal_atomic_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+TEST_F(AtomicFileTest, WritesNewFileCreatingDirectories) {
+  const std::string path = (dir_ / "a" / "b" / "x.yaml").string();
+  autocal::writeFileAtomically(path, "hello\n");
+  EXPECT_EQ(autocal::readFile(path), "hello\n");
+  EXPECT_FALSE(fs::exists(path + ".prev"));
+}
+
+TEST_F(AtomicFileTest, KeepsPreviousVersionAndLeavesNoTemporaryFiles) {
+  const std::string path = (dir_ / "x.yaml").string();
+  autocal::writeFileAtomically(path, "one");
+  autocal::writeFileAtomically(path, "two");
+  EXPECT_EQ(autocal::readFile(path), "two");
+  EXPECT_EQ(autocal::readFile(path + ".prev"), "one");
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    (void)entry;
+    ++files;
+  }
+  EXPECT_EQ(files, 2);
+}
+
+TEST_F(AtomicFileTest, UnwritableDirectoryThrowsAndKeepsTarget) {
+  if (::geteuid() == 0) {
+    // root ignores directory permissions; use a path whose parent is a regular file instead.
+    fs::create_directories(dir_);
+    autocal::writeFileAtomically((dir_ / "file").string(), "x");
+    EXPECT_THROW(autocal::writeFileAtomically((dir_ / "file" / "y.yaml").string(), "y"),
+                 autocal::IoError);
+    EXPECT_EQ(autocal::readFile((dir_ / "file").string()), "x");
+    return;
+  }
+  fs::create_directories(dir_);
+  const std::string path = (dir_ / "x.yaml").string();
+  autocal::writeFileAtomically(path, "good");
+  ::chmod(dir_.c_str(), 0555);
+  EXPECT_THROW(autocal::writeFileAtomically(path, "bad"), autocal::IoError);
+  ::chmod(dir_.c_str(), 0755);
+  EXPECT_EQ(autocal::readFile(path), "good");
+}
+
+TEST_F(AtomicFileTest, ReadMissingFileThrows) {
+  EXPECT_THROW(autocal::readFile((dir_ / "missing").string()), autocal::IoError);
+}
+
+}  // namespace

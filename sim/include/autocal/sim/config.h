@@ -1,0 +1,134 @@
+// Configuration of the simulated robot and world, read from YAML (every key documented in
+// sim/config/robot.yaml and sim/config/world.yaml). SI units: metres, radians, seconds.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace autocal {
+namespace sim {
+
+enum class DistortionModel { kPlumbBob, kRationalPolynomial, kEquidistant };
+
+/// "plumb_bob", "rational_polynomial", "equidistant" (the ROS camera_info names).
+std::string toString(DistortionModel model);
+/// Number of coefficients the model takes (5, 8, 4).
+size_t coefficientCount(DistortionModel model);
+
+/// Intrinsics and distortion of a pinhole camera.
+struct Intrinsics {
+  int width = 640;   ///< [px]
+  int height = 480;  ///< [px]
+  double fx = 0, fy = 0, cx = 0, cy = 0;  ///< [px]
+  DistortionModel distortion_model = DistortionModel::kPlumbBob;
+  std::vector<double> distortion_coefficients;  ///< ROS order (k1 k2 p1 p2 k3 [k4 k5 k6])
+};
+
+struct CameraConfig {
+  Intrinsics truth;    ///< what the lens really does: the renderer uses it
+  Intrinsics nominal;  ///< what camera_info says (uncalibrated datasheet values)
+  double noise_sigma = 2.0;  ///< Gaussian pixel noise [grey levels of 255]
+  double height_m = 0.1;     ///< optical centre above the floor
+  double pitch_rad = 0.3;    ///< downward tilt of the optical axis
+  double x_m = 0.06;         ///< optical centre ahead of the wheel axle
+  double y_m = 0.0;          ///< optical centre left of the robot's centre line
+  double rate_hz = 30.0;
+  double exposure_s = 0.02;  ///< motion during this time blurs the image
+  int supersampling = 3;     ///< edge pixels get supersampling^2 samples (anti-aliasing)
+  int jpeg_quality = 90;
+};
+
+struct RangeSensorConfig {
+  double x_m = 0.09;  ///< sensor position in the robot frame (x ahead of the axle, y left)
+  double y_m = 0.0;
+  double yaw_rad = 0.0;            ///< direction of the cone's axis in the robot frame
+  double field_of_view_rad = 0.44; ///< full cone angle
+  double min_range_m = 0.03;
+  double max_range_m = 2.0;
+  double noise_sigma_m = 0.005;
+  double rate_hz = 20.0;
+  int rays = 9;  ///< rays cast across the cone; the reading is the nearest hit
+};
+
+struct RobotConfig {
+  double wheel_radius_left = 0.0318;   ///< [m] true radius
+  double wheel_radius_right = 0.0318;  ///< [m]
+  double wheelbase = 0.102;            ///< [m] distance between the wheels' contact points
+  double motor_gain_left = 1.0;        ///< true gain of each motor (1 = nominal)
+  double motor_gain_right = 1.0;
+  double motor_constant = 27.0;        ///< [rad/s] wheel speed at duty 1 and gain 1
+  double deadband = 0.05;              ///< duties with |d| <= deadband do not turn the wheel
+  double motor_time_constant = 0.05;   ///< [s] first-order lag of the wheel speed
+  int encoder_resolution = 135;        ///< ticks per wheel revolution
+  double encoder_rate_hz = 30.0;
+  double mass_kg = 1.2;
+  double chassis_length_m = 0.18;
+  double chassis_width_m = 0.13;
+  double chassis_offset_x_m = -0.03;   ///< chassis centre ahead of the axle (negative: behind)
+  double caster_x_m = -0.1;            ///< caster ahead of the axle (negative: behind)
+  double wheel_friction = 0.8;         ///< traction limit = friction x normal load
+  CameraConfig camera;
+  RangeSensorConfig range_sensor;
+};
+
+struct Pose2 {
+  double x_m = 0, y_m = 0, yaw_rad = 0;
+};
+
+/// A vertical chessboard on a stand. Its printed side faces the direction yaw_rad.
+struct ChessboardConfig {
+  int cols = 7;  ///< inner corners along the board's width
+  int rows = 5;  ///< inner corners along its height
+  double square_m = 0.031;
+  double margin_m = 0.02;     ///< white border around the squares
+  Pose2 pose;                 ///< centre of the board on the floor plan, facing yaw_rad
+  double center_z_m = 0.15;   ///< height of the board's centre above the floor
+};
+
+struct FloorTagConfig {
+  int id = 0;
+  double size_m = 0.065;  ///< edge of the black square (AprilTag convention)
+  Pose2 pose;             ///< centre; yaw_rad is the direction of the tag's x axis (image right)
+};
+
+struct LaneLineConfig {
+  double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;
+  double width_m = 0.05;
+  std::string color = "white";  ///< white | yellow
+  double dash_m = 0.0;          ///< 0: solid; else dash length, with gap_m between dashes
+  double gap_m = 0.0;
+};
+
+struct WallConfig {
+  double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;
+  double height_m = 0.5;
+  double thickness_m = 0.05;
+  uint32_t texture_seed = 1;
+};
+
+struct ObstacleConfig {
+  Pose2 pose;
+  double length_m = 0.1, width_m = 0.1, height_m = 0.1;
+  std::vector<double> color{180, 60, 60};  ///< RGB 0..255
+};
+
+struct WorldConfig {
+  Pose2 robot_start;
+  std::vector<double> floor_color{150, 150, 145};  ///< RGB 0..255
+  std::vector<ChessboardConfig> chessboards;
+  std::vector<FloorTagConfig> floor_tags;
+  std::vector<LaneLineConfig> lane_lines;
+  std::vector<WallConfig> walls;
+  std::vector<ObstacleConfig> obstacles;
+};
+
+/// Loads and validates; throws ConfigError naming the file, line and key.
+RobotConfig loadRobotConfig(const std::string& path);
+WorldConfig loadWorldConfig(const std::string& path);
+/// The same from YAML text (`name` stands for the file in messages).
+RobotConfig parseRobotConfig(const std::string& yaml, const std::string& name);
+WorldConfig parseWorldConfig(const std::string& yaml, const std::string& name);
+
+}  // namespace sim
+}  // namespace autocal

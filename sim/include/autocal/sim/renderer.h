@@ -1,0 +1,84 @@
+// Renders the robot's camera image from its true pose: the floor (with AprilTags drawn from the
+// tag family's own code bits, and lane lines), vertical chessboards on stands, textured walls and
+// boxes, seen through the TRUE intrinsics and distortion.
+//
+// Each pixel integrates its area (anti-aliasing): pixel corners are traced once; where a pixel's
+// corners disagree (an edge crosses it) it is supersampled on an s x s grid, so that corners and
+// edges land where the geometry puts them to a small fraction of a pixel. Several robot poses
+// spread over the exposure are averaged (motion blur); Gaussian noise is added last.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <random>
+#include <vector>
+
+#include "autocal/sim/camera_model.h"
+#include "autocal/sim/config.h"
+
+namespace autocal {
+namespace sim {
+
+struct RenderOptions {
+  int supersampling = 3;        ///< an edge pixel gets supersampling^2 samples (Hammersley set)
+  /// A pixel is supersampled when its corners lie on different surfaces, or their colours differ
+  /// by more than this [grey levels] (sharp marks on one surface: squares, tag cells, lane lines;
+  /// smooth texture below it is interpolated).
+  double edge_threshold = 24.0;
+  double noise_sigma = 2.0;     ///< Gaussian pixel noise [grey levels]
+  uint64_t noise_seed = 1;      ///< seed of the noise table
+};
+
+class Scene;
+namespace detail {
+/// A linear colour, 0..255 per channel, in OpenCV's BGR order.
+struct Rgb {
+  float b = 0, g = 0, r = 0;
+};
+}  // namespace detail
+
+class Renderer {
+ public:
+  Renderer(const CameraConfig& camera, const WorldConfig& world, const RenderOptions& options);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  /// The image (CV_8UC3, BGR) seen from the average of these robot poses over the exposure (one
+  /// pose: a still image). `rng` draws the noise offsets, so a seeded rng gives the same image.
+  cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const;
+
+  /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
+  cv::Mat renderExact(const Pose2& pose) const;
+
+  const CameraModel& camera() const { return camera_; }
+
+  /// Pixels of the image whose ray could not be traced (outside the distortion model's domain).
+  int invalidPixels() const { return invalid_pixels_; }
+
+ private:
+  void renderPose(const Pose2& pose, float* accumulate) const;
+
+  CameraConfig config_;
+  CameraModel camera_;
+  RenderOptions options_;
+  std::unique_ptr<Scene> scene_;
+  int width_ = 0, height_ = 0;
+  // Pixel-corner grid ((width+1) x (height+1)): ray direction in the robot frame, its azimuth bin.
+  std::vector<Eigen::Vector3f> corner_dirs_;
+  std::vector<uint16_t> corner_bins_;
+  std::vector<uint8_t> corner_valid_;
+  // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
+  mutable std::vector<detail::Rgb> corner_color_;
+  mutable std::vector<int> corner_id_;
+  mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
+  mutable uint32_t frame_ = 0;
+  std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2
+  int invalid_pixels_ = 0;
+  std::vector<float> noise_table_;
+};
+
+}  // namespace sim
+}  // namespace autocal

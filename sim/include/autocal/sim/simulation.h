@@ -1,0 +1,113 @@
+// The simulated robot and world: Box2D physics of a wheel-level differential drive.
+//
+// Each wheel has its own true radius and motor gain; a duty in [-1, 1] becomes a wheel speed
+// through the motor constant, a deadband and a first-order lag. The wheels move the chassis only
+// through impulses at their contact points that make the contact point roll without slipping,
+// sideways or lengthwise, up to the wheel's traction limit (friction x normal load): the body
+// velocity is never set directly, so collisions with walls, board stands and obstacles push back
+// and a wheel that cannot grip slips (its encoder still counts its rotation).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "autocal/sim/config.h"
+
+class b2World;
+class b2Body;
+
+namespace autocal {
+namespace sim {
+
+enum class Side { kLeft = 0, kRight = 1 };
+
+struct SimulationOptions {
+  double physics_rate_hz = 1000.0;
+  int velocity_iterations = 8;
+  int position_iterations = 3;
+  double pose_history_s = 0.5;  ///< poses kept for motion blur
+};
+
+/// Steady-state wheel speed [rad/s] of a motor for a duty in [-1, 1]: zero within the deadband,
+/// then rising linearly to gain * motor_constant at |duty| = 1.
+double steadyWheelSpeed(double duty, double gain, double motor_constant, double deadband);
+
+class Simulation {
+ public:
+  Simulation(const RobotConfig& robot, const WorldConfig& world, const SimulationOptions& options);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  /// Sets the wheel duties. Values are clamped to [-1, 1]; a non-finite value throws InputError.
+  void setDuty(double left, double right);
+  double duty(Side side) const { return duty_[static_cast<int>(side)]; }
+
+  /// One physics step of 1 / physics_rate_hz.
+  void step();
+  /// Steps until `duration_s` more has passed (rounded to whole steps).
+  void advance(double duration_s);
+
+  double time_s() const { return time_s_; }
+  double timestep_s() const { return dt_s_; }
+  uint64_t steps() const { return steps_; }
+
+  /// True pose of the axle centre.
+  Pose2 pose() const;
+  /// True forward speed [m/s] of the axle centre and yaw rate [rad/s].
+  double forwardSpeed() const;
+  double yawRate() const;
+  /// True world position of a wheel's contact point.
+  Eigen::Vector2d wheelContact(Side side) const;
+  /// Cumulative wheel rotation [rad] and current wheel speed [rad/s].
+  double wheelAngle(Side side) const { return wheel_angle_rad_[static_cast<int>(side)]; }
+  double wheelSpeed(Side side) const { return wheel_speed_rad_s_[static_cast<int>(side)]; }
+  /// Cumulative encoder ticks: the wheel rotation quantised to the encoder resolution.
+  int32_t encoderTicks(Side side) const;
+
+  /// Robot poses at `samples` instants evenly spread over [t0_s, t1_s] (clamped to the history).
+  std::vector<Pose2> posesDuring(double t0_s, double t1_s, int samples) const;
+
+  /// Range sensor: the nearest obstacle over the sensor's cone [m] without noise; +inf when
+  /// nothing is within max_range_m.
+  double trueRange() const;
+  /// A reading as the sensor reports it (REP 117): noise added; -inf below min_range_m, +inf
+  /// beyond max_range_m.
+  double measureRange(std::mt19937_64& rng) const;
+
+  /// Whether the chassis touches a static body (wall, board stand, obstacle).
+  bool inContact() const;
+
+  const RobotConfig& robot() const { return robot_; }
+
+ private:
+  void applyTraction();
+  double castRay(const Eigen::Vector2d& from, const Eigen::Vector2d& dir, double max_m) const;
+
+  RobotConfig robot_;
+  SimulationOptions options_;
+  double dt_s_;
+  double time_s_ = 0;
+  uint64_t steps_ = 0;
+  std::unique_ptr<b2World> world_;
+  b2Body* body_ = nullptr;
+  double duty_[2] = {0, 0};
+  double wheel_speed_rad_s_[2] = {0, 0};
+  double wheel_angle_rad_[2] = {0, 0};
+  double radius_m_[2];
+  double gain_[2];
+  double normal_load_n_[2];
+  struct Stamped {
+    double t_s;
+    Pose2 pose;
+  };
+  std::deque<Stamped> history_;
+  double unwrapped_yaw_rad_ = 0;
+};
+
+}  // namespace sim
+}  // namespace autocal

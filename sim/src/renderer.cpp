@@ -1,0 +1,726 @@
+#include "autocal/sim/renderer.h"
+
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "autocal/errors.h"
+#include "autocal/sim/scene.h"
+
+namespace autocal {
+namespace sim {
+
+namespace {
+
+constexpr int kAzimuthBins = 1024;
+constexpr int kBinPadding = 2;
+constexpr uint16_t kAllBins = kAzimuthBins;  // rays too close to vertical to have an azimuth
+// Flag of a surface id: the surface carries sharp marks (board squares, floor tags and lines)
+// that may be smaller than a block of pixels, so it is never interpolated.
+constexpr int kMarked = 1 << 30;
+
+using detail::Rgb;
+
+Rgb rgb(double r, double g, double b) {
+  return {static_cast<float>(b), static_cast<float>(g), static_cast<float>(r)};
+}
+Rgb rgb(const std::vector<double>& c) { return rgb(c[0], c[1], c[2]); }
+Rgb scaled(const Rgb& c, float k) { return {c.b * k, c.g * k, c.r * k}; }
+
+const Rgb kSky = rgb(205, 205, 215);
+const Rgb kPaperWhite = rgb(228, 228, 225);
+const Rgb kPrintBlack = rgb(28, 28, 30);
+const Rgb kBoardBack = rgb(125, 105, 80);
+const Rgb kStand = rgb(70, 70, 72);
+const Rgb kLaneWhite = rgb(232, 232, 232);
+const Rgb kLaneYellow = rgb(235, 200, 40);
+
+uint32_t hash3(uint32_t a, int32_t x, int32_t y) {
+  uint32_t h = a * 0x9E3779B1u ^ static_cast<uint32_t>(x) * 0x85EBCA77u ^
+               static_cast<uint32_t>(y) * 0xC2B2AE3Du;
+  h ^= h >> 15;
+  h *= 0x2C1B3C6Du;
+  h ^= h >> 12;
+  h *= 0x297A2D39u;
+  h ^= h >> 15;
+  return h;
+}
+float unit(uint32_t h) { return static_cast<float>(h & 0xFFFFFF) / 16777216.0f; }
+
+/// Smooth value noise in [0, 1): bilinear interpolation of hashed lattice values.
+float valueNoise(uint32_t seed, double x, double y) {
+  const double fx = std::floor(x), fy = std::floor(y);
+  const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
+  double tx = x - fx, ty = y - fy;
+  tx = tx * tx * (3 - 2 * tx);
+  ty = ty * ty * (3 - 2 * ty);
+  const float a = unit(hash3(seed, ix, iy)), b = unit(hash3(seed, ix + 1, iy));
+  const float c = unit(hash3(seed, ix, iy + 1)), d = unit(hash3(seed, ix + 1, iy + 1));
+  return static_cast<float>((a + (b - a) * tx) * (1 - ty) + (c + (d - c) * tx) * ty);
+}
+
+enum class Surface : uint8_t { kBoard, kBoardBack, kStand, kWall, kBox };
+
+/// A vertical rectangle standing on the segment p0 -> p1 between heights z0 and z1.
+struct VerticalQuad {
+  Eigen::Vector2d p0, dir;  // dir: unit vector p0 -> p1
+  double length = 0, z0 = 0, z1 = 0;
+  Eigen::Vector2d front;  // normal of the front side (boards: the printed side)
+  Surface front_surface = Surface::kBox, back_surface = Surface::kBox;
+  int index = 0;  // board or wall index
+  Rgb color;
+  int id = 0;
+};
+
+/// A horizontal rectangle (the top of a box) at height z.
+struct HorizontalRect {
+  Eigen::Vector2d c, u;  // centre, unit axis
+  double hu = 0, hv = 0, z = 0;
+  Rgb color;
+  int id = 0;
+};
+
+/// A mark painted on the floor: an AprilTag or a stretch of lane line.
+struct FloorFeature {
+  bool is_tag = false;
+  Eigen::Vector2d c, u;  // centre, unit axis (tag: its x axis; line: along the line)
+  double hu = 0, hv = 0;  // half extents along u and along its left normal
+  std::vector<uint8_t> bitmap;  // tag: total_width^2 cells, row-major, 0 = black
+  int cells = 0;                // tag: total_width
+  double cell = 0;              // tag: cell edge [m]
+  double dash = 0, period = 0;  // line: dash length and dash + gap (0: solid)
+  Rgb color;
+};
+
+/// A wall's procedural texture, baked into a texel map (kWallTexel_m per texel) and sampled
+/// bilinearly; posters are drawn on top with sharp edges.
+constexpr double kWallTexel_m = 0.01;
+struct WallTexture {
+  Rgb base;
+  uint32_t seed = 0;
+  struct Poster {
+    double s0, s1, z0, z1;
+    Rgb color;
+    bool striped;
+  };
+  std::vector<Poster> posters;
+  int nx = 0, nz = 0;
+  std::vector<float> shade;  // brightness factor per texel
+
+  float sampleShade(double s, double z) const {
+    const double x = std::clamp(s / kWallTexel_m, 0.0, nx - 1.001);
+    const double y = std::clamp(z / kWallTexel_m, 0.0, nz - 1.001);
+    const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+    const float tx = static_cast<float>(x - ix), ty = static_cast<float>(y - iy);
+    const float* row0 = &shade[static_cast<size_t>(iy * nx + ix)];
+    const float* row1 = row0 + nx;
+    return (row0[0] + (row0[1] - row0[0]) * tx) * (1 - ty) + (row1[0] + (row1[1] - row1[0]) * tx) * ty;
+  }
+};
+
+}  // namespace
+
+class Scene {
+ public:
+  Scene(const WorldConfig& world);
+
+  /// Colour and surface id of the first surface hit by the ray o + t d (t > 0); d need not be
+  /// unit. bin: the azimuth bin of d in the robot frame (kAllBins: test every vertical quad).
+  inline void trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin, Rgb* color,
+                    int* id) const;
+
+  /// Prepares the per-bin lists of vertical quads for a camera at `origin` on a robot of this yaw.
+  void prepare(const Eigen::Vector3d& origin, double yaw_rad) const;
+
+ private:
+  /// Floor colour at (x, y); *marked: the point lies in a grid cell that holds marks.
+  Rgb floorColor(double x, double y, bool* marked) const;
+  Rgb boardColor(const VerticalQuad& q, double s, double z) const;
+  /// Wall colour at (s, z); *part tells the posters (1 + index) from the bare wall (0).
+  Rgb wallColor(const VerticalQuad& q, double s, double z, int* part) const;
+
+  WorldConfig world_;
+  Rgb floor_color_;
+  std::vector<VerticalQuad> quads_;
+  std::vector<HorizontalRect> tops_;
+  std::vector<FloorFeature> features_;
+  std::vector<WallTexture> wall_textures_;
+  // Floor feature grid.
+  double grid_x0_ = 0, grid_y0_ = 0, grid_cell_ = 0.25, inv_grid_cell_ = 4.0;
+  int grid_nx_ = 0, grid_ny_ = 0;
+  std::vector<std::vector<int>> grid_;
+  // Per-frame azimuth bins and visible box tops (mutable: prepared per rendered pose).
+  mutable std::vector<std::vector<int>> bins_;
+  mutable std::vector<double> bin_min_dist2_;  // squared floor-plan distance to the nearest quad
+  mutable std::vector<int> visible_tops_;
+};
+
+Scene::Scene(const WorldConfig& world) : world_(world), floor_color_(rgb(world.floor_color)) {
+  int next_id = 2;  // 0: nothing, 1: floor
+  for (size_t i = 0; i < world.chessboards.size(); ++i) {
+    const ChessboardConfig& b = world.chessboards[i];
+    const Eigen::Vector2d right = boardRight(b), centre(b.pose.x_m, b.pose.y_m);
+    VerticalQuad q;
+    q.p0 = centre - 0.5 * boardWidth(b) * right;
+    q.dir = right;
+    q.length = boardWidth(b);
+    q.z0 = b.center_z_m - 0.5 * boardHeight(b);
+    q.z1 = b.center_z_m + 0.5 * boardHeight(b);
+    q.front = boardNormal(b);
+    q.front_surface = Surface::kBoard;
+    q.back_surface = Surface::kBoardBack;
+    q.index = static_cast<int>(i);
+    q.id = next_id++;
+    quads_.push_back(q);
+    // The stand: a post under the board's centre.
+    VerticalQuad s = q;
+    const double post = 0.03;
+    s.p0 = centre - 0.5 * post * right;
+    s.length = post;
+    s.z0 = 0;
+    s.z1 = q.z0;
+    s.front_surface = s.back_surface = Surface::kStand;
+    s.color = kStand;
+    s.id = next_id++;
+    if (s.z1 > 1e-4) quads_.push_back(s);
+  }
+  for (size_t i = 0; i < world.walls.size(); ++i) {
+    const WallConfig& w = world.walls[i];
+    VerticalQuad q;
+    q.p0 = Eigen::Vector2d(w.x0_m, w.y0_m);
+    const Eigen::Vector2d p1(w.x1_m, w.y1_m);
+    q.length = (p1 - q.p0).norm();
+    q.dir = (p1 - q.p0) / q.length;
+    q.z0 = 0;
+    q.z1 = w.height_m;
+    q.front = Eigen::Vector2d(-q.dir.y(), q.dir.x());
+    q.front_surface = q.back_surface = Surface::kWall;
+    q.index = static_cast<int>(i);
+    q.id = next_id++;
+    quads_.push_back(q);
+    // A procedural texture: smooth mottling plus a few posters, different for every seed, so that
+    // no two stretches of wall look alike.
+    WallTexture tex;
+    tex.seed = w.texture_seed;
+    const uint32_t s = w.texture_seed;
+    tex.base = rgb(120 + 90 * unit(hash3(s, 1, 0)), 120 + 90 * unit(hash3(s, 2, 0)),
+                   120 + 90 * unit(hash3(s, 3, 0)));
+    const int posters = 3 + static_cast<int>(q.length / 0.6);
+    for (int k = 0; k < posters; ++k) {
+      WallTexture::Poster p;
+      const double w_m = 0.12 + 0.25 * unit(hash3(s, k, 10));
+      const double h_m = 0.08 + 0.2 * unit(hash3(s, k, 11));
+      p.s0 = unit(hash3(s, k, 12)) * std::max(0.0, q.length - w_m);
+      p.s1 = p.s0 + w_m;
+      p.z0 = 0.05 + unit(hash3(s, k, 13)) * std::max(0.0, w.height_m - h_m - 0.1);
+      p.z1 = p.z0 + h_m;
+      p.color = rgb(40 + 200 * unit(hash3(s, k, 14)), 40 + 200 * unit(hash3(s, k, 15)),
+                    40 + 200 * unit(hash3(s, k, 16)));
+      p.striped = (hash3(s, k, 17) & 1u) != 0;
+      tex.posters.push_back(p);
+    }
+    tex.nx = static_cast<int>(std::ceil(q.length / kWallTexel_m)) + 2;
+    tex.nz = static_cast<int>(std::ceil(w.height_m / kWallTexel_m)) + 2;
+    tex.shade.resize(static_cast<size_t>(tex.nx * tex.nz));
+    for (int iz = 0; iz < tex.nz; ++iz) {
+      for (int ix = 0; ix < tex.nx; ++ix) {
+        const double ss = ix * kWallTexel_m, zz = iz * kWallTexel_m;
+        tex.shade[static_cast<size_t>(iz * tex.nx + ix)] =
+            0.7f + 0.22f * valueNoise(s, ss / 0.15, zz / 0.15) + 0.08f * valueNoise(s + 7, ss / 0.04, zz / 0.04);
+      }
+    }
+    wall_textures_.push_back(std::move(tex));
+  }
+  for (const ObstacleConfig& o : world.obstacles) {
+    const Eigen::Vector2d c(o.pose.x_m, o.pose.y_m);
+    const Eigen::Vector2d u(std::cos(o.pose.yaw_rad), std::sin(o.pose.yaw_rad));
+    const Eigen::Vector2d v(-u.y(), u.x());
+    const Eigen::Vector2d corners[4] = {c - 0.5 * o.length_m * u - 0.5 * o.width_m * v,
+                                        c + 0.5 * o.length_m * u - 0.5 * o.width_m * v,
+                                        c + 0.5 * o.length_m * u + 0.5 * o.width_m * v,
+                                        c - 0.5 * o.length_m * u + 0.5 * o.width_m * v};
+    const float shade[4] = {0.8f, 1.0f, 0.65f, 0.9f};  // faces differ so that edges show
+    for (int k = 0; k < 4; ++k) {
+      VerticalQuad q;
+      q.p0 = corners[k];
+      const Eigen::Vector2d p1 = corners[(k + 1) % 4];
+      q.length = (p1 - q.p0).norm();
+      q.dir = (p1 - q.p0) / q.length;
+      q.z0 = 0;
+      q.z1 = o.height_m;
+      q.front = Eigen::Vector2d(q.dir.y(), -q.dir.x());  // counter-clockwise corners: outwards
+      q.front_surface = q.back_surface = Surface::kBox;
+      q.color = scaled(rgb(o.color), shade[k]);
+      q.id = next_id++;
+      quads_.push_back(q);
+    }
+    HorizontalRect top;
+    top.c = c;
+    top.u = u;
+    top.hu = 0.5 * o.length_m;
+    top.hv = 0.5 * o.width_m;
+    top.z = o.height_m;
+    top.color = scaled(rgb(o.color), 1.1f);
+    top.id = next_id++;
+    tops_.push_back(top);
+  }
+
+  // Floor marks: tags drawn from the family's own code bits (libapriltag renders the code into
+  // its total_width x total_width cell image), and lane lines (split into dashes).
+  apriltag_family_t* family = tag36h11_create();
+  for (const FloorTagConfig& t : world.floor_tags) {
+    FloorFeature f;
+    f.is_tag = true;
+    f.c = Eigen::Vector2d(t.pose.x_m, t.pose.y_m);
+    f.u = Eigen::Vector2d(std::cos(t.pose.yaw_rad), std::sin(t.pose.yaw_rad));
+    image_u8_t* im = apriltag_to_image(family, t.id);
+    f.cells = im->width;
+    f.bitmap.resize(static_cast<size_t>(im->width * im->height));
+    for (int y = 0; y < im->height; ++y) {
+      for (int x = 0; x < im->width; ++x) f.bitmap[y * im->width + x] = im->buf[y * im->stride + x];
+    }
+    std::free(im->buf);
+    std::free(im);
+    f.cell = t.size_m / family->width_at_border;
+    f.hu = f.hv = 0.5 * f.cell * f.cells;
+    features_.push_back(std::move(f));
+  }
+  tag36h11_destroy(family);
+  for (const LaneLineConfig& l : world.lane_lines) {
+    const Eigen::Vector2d a(l.x0_m, l.y0_m), b(l.x1_m, l.y1_m);
+    const double len = (b - a).norm();
+    const Eigen::Vector2d u = (b - a) / len;
+    // Split long lines into pieces so that the floor grid stays selective.
+    const double piece = l.dash_m > 0 ? l.dash_m + l.gap_m : 0.25;
+    for (double s0 = 0; s0 < len; s0 += piece) {
+      FloorFeature f;
+      const double s1 = std::min(len, s0 + (l.dash_m > 0 ? l.dash_m : piece));
+      f.c = a + 0.5 * (s0 + s1) * u;
+      f.u = u;
+      f.hu = 0.5 * (s1 - s0);
+      f.hv = 0.5 * l.width_m;
+      f.color = l.color == "yellow" ? kLaneYellow : kLaneWhite;
+      features_.push_back(std::move(f));
+    }
+  }
+  // Grid over the features' extent.
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (const FloorFeature& f : features_) {
+    const double r = std::hypot(f.hu, f.hv);
+    x0 = std::min(x0, f.c.x() - r);
+    y0 = std::min(y0, f.c.y() - r);
+    x1 = std::max(x1, f.c.x() + r);
+    y1 = std::max(y1, f.c.y() + r);
+  }
+  if (!features_.empty()) {
+    grid_x0_ = x0;
+    grid_y0_ = y0;
+    grid_nx_ = std::max(1, static_cast<int>(std::ceil((x1 - x0) / grid_cell_)));
+    grid_ny_ = std::max(1, static_cast<int>(std::ceil((y1 - y0) / grid_cell_)));
+    grid_.assign(static_cast<size_t>(grid_nx_ * grid_ny_), {});
+    for (size_t i = 0; i < features_.size(); ++i) {
+      const FloorFeature& f = features_[i];
+      const double r = std::hypot(f.hu, f.hv);
+      const int ix0 = std::max(0, static_cast<int>((f.c.x() - r - x0) / grid_cell_));
+      const int ix1 = std::min(grid_nx_ - 1, static_cast<int>((f.c.x() + r - x0) / grid_cell_));
+      const int iy0 = std::max(0, static_cast<int>((f.c.y() - r - y0) / grid_cell_));
+      const int iy1 = std::min(grid_ny_ - 1, static_cast<int>((f.c.y() + r - y0) / grid_cell_));
+      for (int iy = iy0; iy <= iy1; ++iy) {
+        for (int ix = ix0; ix <= ix1; ++ix) grid_[iy * grid_nx_ + ix].push_back(static_cast<int>(i));
+      }
+    }
+  }
+  bins_.assign(kAzimuthBins + 1, {});
+  bin_min_dist2_.assign(kAzimuthBins + 1, 0.0);
+}
+
+namespace {
+int azimuthBin(double azimuth_rad) {
+  double a = std::fmod(azimuth_rad + M_PI, 2 * M_PI);
+  if (a < 0) a += 2 * M_PI;
+  int b = static_cast<int>(a / (2 * M_PI) * kAzimuthBins);
+  return std::min(b, kAzimuthBins - 1);
+}
+}  // namespace
+
+void Scene::prepare(const Eigen::Vector3d& o, double yaw_rad) const {
+  for (auto& b : bins_) b.clear();
+  std::fill(bin_min_dist2_.begin(), bin_min_dist2_.end(), std::numeric_limits<double>::infinity());
+  visible_tops_.clear();
+  for (size_t k = 0; k < tops_.size(); ++k) {
+    if (tops_[k].z < o.z()) visible_tops_.push_back(static_cast<int>(k));  // seen from above only
+  }
+  for (size_t i = 0; i < quads_.size(); ++i) {
+    const VerticalQuad& q = quads_[i];
+    bins_[kAllBins].push_back(static_cast<int>(i));
+    const Eigen::Vector2d o2(o.x(), o.y());
+    const Eigen::Vector2d a = q.p0 - o2, b = q.p0 + q.length * q.dir - o2;
+    // Every quad is tested by rays whose azimuth lies within the arc it spans from the camera
+    // (shorter than half a turn, unless the camera stands in the quad's plane: then all bins).
+    const double a0 = std::atan2(a.y(), a.x()), a1 = std::atan2(b.y(), b.x());
+    double span = std::remainder(a1 - a0, 2 * M_PI);
+    double start = span >= 0 ? a0 : a1;
+    span = std::abs(span);
+    const double cross = a.x() * b.y() - a.y() * b.x();
+    if (std::abs(cross) < 1e-9 * a.norm() * b.norm() && a.dot(b) < 0) {
+      start = -M_PI;
+      span = 2 * M_PI;
+    }
+    // Nearest point of the quad's footprint to the camera: a floor hit nearer than every quad of
+    // its bin needs no quad test.
+    const double along = std::clamp(-a.dot(q.dir), 0.0, q.length);
+    const double dist2 = (a + along * q.dir).squaredNorm();
+    bin_min_dist2_[kAllBins] = std::min(bin_min_dist2_[kAllBins], dist2);
+    const int first = azimuthBin(start - yaw_rad) - kBinPadding;
+    const int count = static_cast<int>(span / (2 * M_PI) * kAzimuthBins) + 1 + 2 * kBinPadding;
+    for (int k = 0; k < std::min(count, kAzimuthBins); ++k) {
+      const int bin = ((first + k) % kAzimuthBins + kAzimuthBins) % kAzimuthBins;
+      bins_[bin].push_back(static_cast<int>(i));
+      bin_min_dist2_[bin] = std::min(bin_min_dist2_[bin], dist2);
+    }
+  }
+}
+
+Rgb Scene::floorColor(double x, double y, bool* marked) const {
+  *marked = false;
+  if (!grid_.empty()) {
+    const double gx = (x - grid_x0_) * inv_grid_cell_, gy = (y - grid_y0_) * inv_grid_cell_;
+    const int ix = static_cast<int>(gx), iy = static_cast<int>(gy);
+    if (gx >= 0 && gy >= 0 && ix < grid_nx_ && iy < grid_ny_) {
+      const std::vector<int>& cell = grid_[iy * grid_nx_ + ix];
+      *marked = !cell.empty();
+      for (int i : cell) {
+        const FloorFeature& f = features_[i];
+        const double dx = x - f.c.x(), dy = y - f.c.y();
+        const double a = dx * f.u.x() + dy * f.u.y();   // along u
+        const double b = -dx * f.u.y() + dy * f.u.x();  // along u turned left
+        if (std::abs(a) > f.hu || std::abs(b) > f.hv) continue;
+        if (!f.is_tag) return f.color;
+        // Bitmap column grows along the tag's x (u), its row grows against the tag's up (b).
+        const int col = static_cast<int>(std::floor(a / f.cell + 0.5 * f.cells));
+        const int row = static_cast<int>(std::floor(-b / f.cell + 0.5 * f.cells));
+        if (col < 0 || row < 0 || col >= f.cells || row >= f.cells) continue;
+        return f.bitmap[row * f.cells + col] ? kPaperWhite : kPrintBlack;
+      }
+    }
+  }
+  return floor_color_;
+}
+
+Rgb Scene::boardColor(const VerticalQuad& q, double s, double z) const {
+  const ChessboardConfig& b = world_.chessboards[q.index];
+  const double u = (s - b.margin_m) / b.square_m;
+  const double v = (q.z1 - b.margin_m - z) / b.square_m;
+  if (u < 0 || v < 0 || u >= b.cols + 1 || v >= b.rows + 1) return kPaperWhite;
+  const int a = static_cast<int>(u), c = static_cast<int>(v);
+  return ((a + c) % 2 == 0) ? kPrintBlack : kPaperWhite;
+}
+
+Rgb Scene::wallColor(const VerticalQuad& q, double s, double z, int* part) const {
+  const WallTexture& t = wall_textures_[q.index];
+  *part = 0;
+  for (const auto& p : t.posters) {
+    ++*part;
+    if (s >= p.s0 && s <= p.s1 && z >= p.z0 && z <= p.z1) {
+      if (p.striped && static_cast<int>(std::floor((s - p.s0) / 0.03)) % 2 == 0) {
+        return scaled(p.color, 0.55f);
+      }
+      return p.color;
+    }
+  }
+  *part = 0;
+  return scaled(t.base, t.sampleShade(s, z));
+}
+
+inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin,
+                         Rgb* color, int* id) const {
+  double best = std::numeric_limits<double>::infinity();
+  int hit = -1;  // -1 nothing, -2 floor, -3 - k: top k, >= 0: quad
+  double hit_s = 0;
+  bool quads_possible = true;
+  if (d.z() < 0) {
+    best = -o.z() / d.z();
+    hit = -2;
+    quads_possible = best * best * (d.x() * d.x() + d.y() * d.y()) >= bin_min_dist2_[bin];
+  }
+  if (quads_possible) for (int i : bins_[bin]) {
+    const VerticalQuad& q = quads_[i];
+    // Solve o2 + t d2 = p0 + s dir in the floor plan.
+    const double denom = d.x() * q.dir.y() - d.y() * q.dir.x();
+    if (std::abs(denom) < 1e-14) continue;
+    const double wx = q.p0.x() - o.x(), wy = q.p0.y() - o.y();
+    const double t = (wx * q.dir.y() - wy * q.dir.x()) / denom;
+    if (t <= 0 || t >= best) continue;
+    const double s = (wx * d.y() - wy * d.x()) / denom;
+    if (s < 0 || s > q.length) continue;
+    const double z = o.z() + t * d.z();
+    if (z < q.z0 || z > q.z1) continue;
+    best = t;
+    hit = i;
+    hit_s = s;
+  }
+  for (int k : visible_tops_) {
+    const HorizontalRect& r = tops_[static_cast<size_t>(k)];
+    if (d.z() >= 0) continue;
+    const double t = (r.z - o.z()) / d.z();
+    if (t <= 0 || t >= best) continue;
+    const double dx = o.x() + t * d.x() - r.c.x(), dy = o.y() + t * d.y() - r.c.y();
+    if (std::abs(dx * r.u.x() + dy * r.u.y()) > r.hu) continue;
+    if (std::abs(-dx * r.u.y() + dy * r.u.x()) > r.hv) continue;
+    best = t;
+    hit = -3 - static_cast<int>(k);
+  }
+  if (hit == -1) {
+    *color = kSky;
+    *id = 0;
+  } else if (hit == -2) {
+    bool marked = false;
+    *color = floorColor(o.x() + best * d.x(), o.y() + best * d.y(), &marked);
+    *id = marked ? (1 | kMarked) : 1;
+  } else if (hit <= -3) {
+    const HorizontalRect& r = tops_[static_cast<size_t>(-3 - hit)];
+    *color = r.color;
+    *id = r.id;
+  } else {
+    const VerticalQuad& q = quads_[static_cast<size_t>(hit)];
+    const bool front = d.x() * q.front.x() + d.y() * q.front.y() < 0;
+    const Surface surface = front ? q.front_surface : q.back_surface;
+    const double z = o.z() + best * d.z();
+    *id = q.id;
+    switch (surface) {
+      case Surface::kBoard:
+        *color = boardColor(q, hit_s, z);
+        *id |= kMarked;
+        break;
+      case Surface::kBoardBack:
+        *color = kBoardBack;
+        break;
+      case Surface::kWall: {
+        int part = 0;
+        *color = wallColor(q, hit_s, z, &part);
+        *id += part << 16;  // posters are surfaces of their own: their edges are always edges
+        break;
+      }
+      case Surface::kStand:
+      case Surface::kBox:
+        *color = q.color;
+        break;
+    }
+  }
+}
+
+// -----------------------------------------------------------------------------------------------
+
+Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
+                   const RenderOptions& options)
+    : config_(camera),
+      camera_(camera.truth),
+      options_(options),
+      scene_(std::make_unique<Scene>(world)),
+      width_(camera.truth.width),
+      height_(camera.truth.height) {
+  if (options_.supersampling < 1 || options_.supersampling > 16) {
+    throw ConfigError("renderer: supersampling must be 1..16");
+  }
+  // Rays through the pixel corners (OpenCV: pixel centres at integers, so corners at half
+  // integers), turned into the robot frame once: the camera is fixed on the robot.
+  const Eigen::Matrix3d robot_cam = cameraToRobotRotation(camera.pitch_rad);
+  const size_t n = static_cast<size_t>((width_ + 1) * (height_ + 1));
+  corner_dirs_.resize(n);
+  corner_bins_.resize(n);
+  corner_valid_.resize(n);
+  for (int v = 0; v <= height_; ++v) {
+    for (int u = 0; u <= width_; ++u) {
+      const size_t i = static_cast<size_t>(v * (width_ + 1) + u);
+      Eigen::Vector3d ray;
+      const bool ok = camera_.ray(u - 0.5, v - 0.5, &ray);
+      corner_valid_[i] = ok;
+      const Eigen::Vector3d d = ok ? Eigen::Vector3d(robot_cam * ray) : Eigen::Vector3d(0, 0, 1);
+      corner_dirs_[i] = d.cast<float>();
+      const double horizontal = std::hypot(d.x(), d.y());
+      corner_bins_[i] = horizontal < 0.02 ? kAllBins
+                                          : static_cast<uint16_t>(azimuthBin(std::atan2(d.y(), d.x())));
+    }
+  }
+  for (int v = 0; v < height_; ++v) {
+    for (int u = 0; u < width_; ++u) {
+      const size_t i = static_cast<size_t>(v * (width_ + 1) + u);
+      if (!corner_valid_[i] || !corner_valid_[i + 1] || !corner_valid_[i + width_ + 1] ||
+          !corner_valid_[i + width_ + 2]) {
+        ++invalid_pixels_;
+      }
+    }
+  }
+  // Sample positions within an edge pixel: a Hammersley set of ss^2 points (one per row and per
+  // column of the ss^2 x ss^2 grid), which measures the area an edge covers in ss^2 steps
+  // whatever its direction, where a regular ss x ss grid has only ss steps for axis-aligned edges.
+  const int n_samples = options_.supersampling * options_.supersampling;
+  for (int i = 0; i < n_samples; ++i) {
+    double radical = 0, f = 0.5;
+    for (int k = i; k > 0; k >>= 1, f *= 0.5) radical += f * (k & 1);
+    // Radical inverse in base 2 is a permutation only for powers of two; rank it among the set.
+    sample_offsets_.emplace_back(static_cast<float>((i + 0.5) / n_samples), static_cast<float>(radical));
+  }
+  std::vector<int> order(n_samples);
+  for (int i = 0; i < n_samples; ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return sample_offsets_[a].y() < sample_offsets_[b].y(); });
+  for (int rank = 0; rank < n_samples; ++rank) {
+    sample_offsets_[order[rank]].y() = static_cast<float>((rank + 0.5) / n_samples);
+  }
+  // A table of standard normal samples, four images long, so that a frame's noise never repeats
+  // within the frame; each frame starts at a random offset (drawn from the caller's seeded rng).
+  std::mt19937_64 gen(options_.noise_seed);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  noise_table_.resize(static_cast<size_t>(width_) * height_ * 3 * 4);
+  for (float& x : noise_table_) x = normal(gen);
+}
+
+Renderer::~Renderer() = default;
+
+void Renderer::renderPose(const Pose2& pose, float* acc) const {
+  const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
+  scene_->prepare(origin, pose.yaw_rad);
+  const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+  const int W = width_ + 1;
+  std::vector<Rgb>& color = corner_color_;
+  std::vector<int>& id = corner_id_;
+  color.resize(corner_dirs_.size());
+  id.resize(corner_dirs_.size());
+  traced_.resize(corner_dirs_.size());
+  ++frame_;  // corners traced in this frame carry its number (no per-frame clearing)
+
+  auto traceCorner = [&](size_t i) {
+    if (traced_[i] == frame_) return;
+    traced_[i] = frame_;
+    if (!corner_valid_[i]) {
+      id[i] = -1;
+      return;
+    }
+    const Eigen::Vector3f& d = corner_dirs_[i];
+    const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
+    scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i]);
+  };
+
+  const float thr = static_cast<float>(options_.edge_threshold);
+  const float inv_samples = 1.0f / static_cast<float>(sample_offsets_.size());
+  // One pixel from its four (traced) corners: their mean where they agree, else the mean of
+  // sample rays spread over the pixel's area.
+  auto shadePixel = [&](int u, int v) {
+    const size_t i00 = static_cast<size_t>(v * W + u), i10 = i00 + 1, i01 = i00 + W, i11 = i01 + 1;
+    float* out = acc + 3 * (static_cast<size_t>(v) * width_ + u);
+    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 || id[i11] < 0) return;  // outside the lens model
+    const Rgb &a = color[i00], &b = color[i10], &e = color[i01], &f = color[i11];
+    const int id00 = id[i00] & ~kMarked;
+    bool alike = id00 == (id[i10] & ~kMarked) && id00 == (id[i01] & ~kMarked) && id00 == (id[i11] & ~kMarked);
+    if (alike) {
+      const float rb_a = a.r + a.b, rb_b = b.r + b.b, rb_e = e.r + e.b, rb_f = f.r + f.b;
+      alike = std::max(std::max(a.g, b.g), std::max(e.g, f.g)) - std::min(std::min(a.g, b.g), std::min(e.g, f.g)) <= thr &&
+              std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
+    }
+    if (alike || sample_offsets_.size() <= 1) {
+      out[0] += 0.25f * (a.b + b.b + e.b + f.b);
+      out[1] += 0.25f * (a.g + b.g + e.g + f.g);
+      out[2] += 0.25f * (a.r + b.r + e.r + f.r);
+      return;
+    }
+    // An edge crosses the pixel: integrate its area with sample rays, each interpolated between
+    // the pixel's corner rays (the lens mapping is smooth within a pixel).
+    const Eigen::Vector3f &d00 = corner_dirs_[i00], &d10 = corner_dirs_[i10];
+    const Eigen::Vector3f &d01 = corner_dirs_[i01], &d11 = corner_dirs_[i11];
+    const uint16_t bin = corner_bins_[i00];
+    float sb = 0, sg = 0, sr = 0;
+    for (const Eigen::Vector2f& t : sample_offsets_) {
+      const Eigen::Vector3f l = d00 + (d01 - d00) * t.y(), r = d10 + (d11 - d10) * t.y();
+      const Eigen::Vector3f d = l + (r - l) * t.x();
+      const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
+      Rgb col;
+      int sample_id;
+      scene_->trace(origin, dw, bin, &col, &sample_id);
+      sb += col.b;
+      sg += col.g;
+      sr += col.r;
+    }
+    out[0] += sb * inv_samples;
+    out[1] += sg * inv_samples;
+    out[2] += sr * inv_samples;
+  };
+
+  if (width_ % 2 != 0 || height_ % 2 != 0) {
+    for (size_t i = 0; i < corner_dirs_.size(); ++i) traceCorner(i);
+    for (int v = 0; v < height_; ++v) {
+      for (int u = 0; u < width_; ++u) shadePixel(u, v);
+    }
+    return;
+  }
+  // Trace every other corner first. A 2 x 2 block of pixels whose four outer corners lie on the
+  // same unmarked surface (plain floor, sky, bare wall, a box face) with alike colours holds no
+  // edge: its pixels are the bilinear blend of those corners (the mean of a pixel's corners is
+  // the blend at its centre). Any other block is traced corner by corner and shaded per pixel.
+  for (int v = 0; v <= height_; v += 2) {
+    for (int u = 0; u <= width_; u += 2) traceCorner(static_cast<size_t>(v * W + u));
+  }
+  for (int v = 0; v < height_; v += 2) {
+    for (int u = 0; u < width_; u += 2) {
+      const size_t a = static_cast<size_t>(v * W + u), b = a + 2, e = a + 2 * W, f = e + 2;
+      const int block_id = id[a];
+      bool smooth = block_id >= 0 && !(block_id & kMarked) && id[b] == block_id && id[e] == block_id &&
+                    id[f] == block_id;
+      if (smooth) {
+        // The inner corners must be valid lens rays too.
+        smooth = corner_valid_[a + 1] && corner_valid_[a + W] && corner_valid_[a + W + 1] &&
+                 corner_valid_[a + W + 2] && corner_valid_[e + 1];
+      }
+      const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
+      if (smooth) {
+        const float rb_a = ca.r + ca.b, rb_b = cb.r + cb.b, rb_e = ce.r + ce.b, rb_f = cf.r + cf.b;
+        smooth = std::max(std::max(ca.g, cb.g), std::max(ce.g, cf.g)) - std::min(std::min(ca.g, cb.g), std::min(ce.g, cf.g)) <= thr &&
+                 std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
+      }
+      if (smooth) {
+        static constexpr float w[4][4] = {{9 / 16.f, 3 / 16.f, 3 / 16.f, 1 / 16.f},
+                                          {3 / 16.f, 9 / 16.f, 1 / 16.f, 3 / 16.f},
+                                          {3 / 16.f, 1 / 16.f, 9 / 16.f, 3 / 16.f},
+                                          {1 / 16.f, 3 / 16.f, 3 / 16.f, 9 / 16.f}};
+        for (int k = 0; k < 4; ++k) {
+          float* out = acc + 3 * (static_cast<size_t>(v + k / 2) * width_ + u + k % 2);
+          out[0] += w[k][0] * ca.b + w[k][1] * cb.b + w[k][2] * ce.b + w[k][3] * cf.b;
+          out[1] += w[k][0] * ca.g + w[k][1] * cb.g + w[k][2] * ce.g + w[k][3] * cf.g;
+          out[2] += w[k][0] * ca.r + w[k][1] * cb.r + w[k][2] * ce.r + w[k][3] * cf.r;
+        }
+        continue;
+      }
+      for (const size_t i : {a + 1, a + W, a + W + 1, a + W + 2, e + 1}) traceCorner(i);
+      shadePixel(u, v);
+      shadePixel(u + 1, v);
+      shadePixel(u, v + 1);
+      shadePixel(u + 1, v + 1);
+    }
+  }
+}
+
+cv::Mat Renderer::renderExact(const Pose2& pose) const {
+  cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
+  renderPose(pose, acc.ptr<float>());
+  return acc;
+}
+
+cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const {
+  if (poses.empty()) throw InputError("renderer: no pose to render");
+  cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
+  for (const Pose2& p : poses) renderPose(p, acc.ptr<float>());
+  if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
+  const size_t n = static_cast<size_t>(width_) * height_ * 3;
+  const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
+  const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
+  cv::scaleAdd(noise, options_.noise_sigma, acc, acc);
+  cv::Mat out;
+  acc.convertTo(out, CV_8UC3);  // rounds and saturates to 0..255
+  return out;
+}
+
+}  // namespace sim
+}  // namespace autocal

@@ -1,0 +1,174 @@
+// The range sensor's ray casts against the geometry, and the strict configuration reader.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/simulation.h"
+
+namespace sim = autocal::sim;
+
+namespace {
+
+const std::string kSource = AUTOCAL_SOURCE_DIR;
+
+sim::RobotConfig defaultRobot() { return sim::loadRobotConfig(kSource + "/sim/config/robot.yaml"); }
+
+sim::WorldConfig wallAt(double x) {
+  sim::WorldConfig w;
+  sim::WallConfig wall;
+  wall.x0_m = wall.x1_m = x;
+  wall.y0_m = -2;
+  wall.y1_m = 2;
+  wall.thickness_m = 0.04;
+  w.walls.push_back(wall);
+  return w;
+}
+
+TEST(SimRange, RayCastRangeEqualsTheGeometry) {
+  const sim::RobotConfig robot = defaultRobot();
+  for (double x : {0.4, 0.9, 1.6}) {
+    sim::Simulation s(robot, wallAt(x), sim::SimulationOptions());
+    // Sensor at x_m ahead of the axle facing the wall head-on; the wall's face is thickness/2
+    // before its centre line. The cone's nearest ray is the central one.
+    const double expected = x - 0.02 - robot.range_sensor.x_m;
+    EXPECT_NEAR(s.trueRange(), expected, 1e-4) << "wall at " << x;
+    // Readings scatter around it with the configured noise.
+    std::mt19937_64 rng(4);
+    double sum = 0, sum2 = 0;
+    const int n = 4000;
+    for (int i = 0; i < n; ++i) {
+      const double r = s.measureRange(rng);
+      sum += r;
+      sum2 += r * r;
+    }
+    const double mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
+    EXPECT_NEAR(mean, expected, 4 * robot.range_sensor.noise_sigma_m / std::sqrt(n));
+    EXPECT_NEAR(sd, robot.range_sensor.noise_sigma_m, 0.1 * robot.range_sensor.noise_sigma_m);
+  }
+}
+
+TEST(SimRange, ObliqueWallUsesTheNearestRayOfTheCone) {
+  sim::RobotConfig robot = defaultRobot();
+  sim::WorldConfig w = wallAt(1.0);
+  w.robot_start.yaw_rad = 0.3;  // the wall is 0.3 rad off the sensor's axis
+  sim::Simulation s(robot, w, sim::SimulationOptions());
+  const double sx = robot.range_sensor.x_m * std::cos(0.3);
+  const double half_fov = 0.5 * robot.range_sensor.field_of_view_rad;
+  // The ray at the cone's edge nearest the wall's normal: angle 0.3 - half_fov from it.
+  const double expected = (1.0 - 0.02 - sx) / std::cos(0.3 - half_fov);
+  EXPECT_NEAR(s.trueRange(), expected, 1e-4);
+}
+
+TEST(SimRange, NothingInRangeIsInfinityAndTooCloseIsMinusInfinity) {
+  sim::RobotConfig robot = defaultRobot();
+  robot.range_sensor.noise_sigma_m = 0;
+  sim::Simulation far(robot, wallAt(5.0), sim::SimulationOptions());
+  std::mt19937_64 rng(1);
+  EXPECT_TRUE(std::isinf(far.trueRange()));
+  EXPECT_EQ(far.measureRange(rng), std::numeric_limits<double>::infinity());
+  robot.range_sensor.min_range_m = 0.5;
+  sim::Simulation near(robot, wallAt(0.4), sim::SimulationOptions());
+  EXPECT_EQ(near.measureRange(rng), -std::numeric_limits<double>::infinity());
+}
+
+TEST(SimRange, ObstacleOutsideTheConeIsNotSeen) {
+  sim::RobotConfig robot = defaultRobot();
+  sim::WorldConfig w;
+  sim::ObstacleConfig box;
+  box.pose = {0.6, 0.5, 0};  // 40 degrees off axis
+  box.length_m = box.width_m = 0.1;
+  w.obstacles.push_back(box);
+  sim::Simulation s(robot, w, sim::SimulationOptions());
+  EXPECT_TRUE(std::isinf(s.trueRange()));
+  w.obstacles[0].pose = {0.6, 0.05, 0};
+  sim::Simulation t(robot, w, sim::SimulationOptions());
+  EXPECT_NEAR(t.trueRange(), 0.6 - 0.05 - robot.range_sensor.x_m, 0.01);
+}
+
+// --- configuration -------------------------------------------------------------------------
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// The message of the ConfigError that parsing `yaml` throws ("" when it does not throw).
+std::string robotError(const std::string& yaml) {
+  try {
+    sim::parseRobotConfig(yaml, "robot.yaml");
+  } catch (const autocal::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+TEST(SimConfig, ShippedConfigsLoad) {
+  const sim::RobotConfig r = defaultRobot();
+  EXPECT_EQ(r.encoder_resolution, 135);
+  EXPECT_EQ(r.camera.truth.distortion_coefficients.size(), 5u);
+  EXPECT_NE(r.camera.truth.fx, r.camera.nominal.fx) << "camera_info must not carry the truth";
+  const sim::WorldConfig w = sim::loadWorldConfig(kSource + "/sim/config/world.yaml");
+  EXPECT_GE(w.chessboards.size(), 2u);
+  EXPECT_GE(w.floor_tags.size(), 3u);
+  // Floor tags 15 cm apart, 6.5 cm, all oriented the same way (paper 000 section 3.1).
+  for (size_t i = 1; i < w.floor_tags.size(); ++i) {
+    const auto& a = w.floor_tags[i - 1].pose;
+    const auto& b = w.floor_tags[i].pose;
+    EXPECT_NEAR(std::hypot(a.x_m - b.x_m, a.y_m - b.y_m), 0.15, 1e-9);
+    EXPECT_EQ(a.yaw_rad, b.yaw_rad);
+    EXPECT_EQ(w.floor_tags[i].size_m, 0.065);
+  }
+}
+
+TEST(SimConfig, UnknownKeyIsAnErrorNamingFileLineAndKey) {
+  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  const std::string msg = robotError(replaced(base, "  jpeg_quality: 90", "  jpeg_quality: 90\n  jpeg_qualty: 80"));
+  EXPECT_NE(msg.find("robot.yaml:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("camera.jpeg_qualty: unknown key"), std::string::npos) << msg;
+  const std::string top = robotError(base + "\nwheel_radius: 0.03\n");
+  EXPECT_NE(top.find("wheel_radius: unknown key"), std::string::npos) << top;
+}
+
+TEST(SimConfig, MalformedOrMissingValuesAreErrors) {
+  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: abc")).find("wheelbase: expected a number, got 'abc'"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: -0.1")).find("wheelbase: must be > 0"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: .nan")).find("wheelbase"), std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "encoder_resolution: 135", "encoder_resolution: 13.5")).find("encoder_resolution"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102  ", "#")).find("wheelbase: required key is missing"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "distortion_coefficients: [-0.27, 0.065, 0.0011, -0.0007, 0.0]",
+                                "distortion_coefficients: [-0.27, 0.065]"))
+                .find("plumb_bob takes 5 coefficients"),
+            std::string::npos);
+  EXPECT_NE(robotError("camera: [1, 2\n").find("not valid YAML"), std::string::npos);
+  EXPECT_THROW(sim::loadRobotConfig("/nonexistent/robot.yaml"), autocal::ConfigError);
+}
+
+TEST(SimConfig, WorldErrorsNameTheListEntry) {
+  try {
+    sim::parseWorldConfig("chessboards:\n  - {cols: 7, rows: 5, square_m: 0.03, x_m: 1, y_m: 0, center_z_m: 0.15, colour: red}\n",
+                          "world.yaml");
+    FAIL() << "no error";
+  } catch (const autocal::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("world.yaml:2: chessboards[0].colour: unknown key"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(sim::parseWorldConfig("floor_tags:\n  - {id: 999, size_m: 0.065, x_m: 0, y_m: 0}\n", "w"),
+               autocal::ConfigError);
+}
+
+}  // namespace

@@ -1,0 +1,289 @@
+// The renderer against the geometry it draws: OpenCV's and libapriltag's detectors, run on the
+// rendered images, must find the boards' corners and the tags where the true camera puts them.
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "autocal/sim/camera_model.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/scene.h"
+
+namespace sim = autocal::sim;
+
+namespace {
+
+sim::RobotConfig defaultRobot() {
+  return sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+}
+sim::WorldConfig defaultWorld() {
+  return sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world.yaml");
+}
+
+sim::RenderOptions optionsOf(const sim::CameraConfig& c) {
+  sim::RenderOptions o;
+  o.supersampling = c.supersampling;
+  o.noise_sigma = c.noise_sigma;
+  return o;
+}
+
+cv::Mat cameraMatrix(const sim::Intrinsics& in) {
+  return (cv::Mat_<double>(3, 3) << in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
+}
+
+/// Pixels where the true camera images these world points (through cv::projectPoints, not through
+/// the simulator's own projection).
+std::vector<cv::Point2f> projectTruth(const sim::CameraConfig& cam, const sim::Pose2& pose,
+                                      const std::vector<Eigen::Vector3d>& world_points) {
+  const Eigen::Isometry3d cam_from_world = sim::cameraInWorld(cam, pose).inverse();
+  std::vector<cv::Point3d> pts;
+  for (const auto& p : world_points) {
+    const Eigen::Vector3d q = cam_from_world * p;
+    pts.emplace_back(q.x(), q.y(), q.z());
+  }
+  std::vector<cv::Point2f> out;
+  const cv::Mat K = cameraMatrix(cam.truth);
+  const cv::Mat D(cam.truth.distortion_coefficients, true);
+  if (cam.truth.distortion_model == sim::DistortionModel::kEquidistant) {
+    std::vector<cv::Point2d> out_d;
+    cv::fisheye::projectPoints(pts, out_d, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D);
+    for (const auto& p : out_d) out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  } else {
+    std::vector<cv::Point2d> out_d;
+    cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, D, out_d);
+    for (const auto& p : out_d) out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  }
+  return out;
+}
+
+/// RMS distance [px] from each detected corner to the nearest true one.
+double matchRms(const std::vector<cv::Point2f>& detected, const std::vector<cv::Point2f>& truth) {
+  double sum = 0;
+  for (const auto& d : detected) {
+    double best = 1e18;
+    for (const auto& t : truth) best = std::min(best, double(cv::norm(d - t)));
+    sum += best * best;
+  }
+  return std::sqrt(sum / detected.size());
+}
+
+struct BoardView {
+  int board;
+  sim::Pose2 pose;
+};
+
+/// Renders, detects the board with OpenCV (sub-pixel) and returns the RMS against the truth.
+double boardCornerRms(const sim::RobotConfig& robot, const sim::WorldConfig& world, const BoardView& view,
+                      uint64_t seed) {
+  sim::Renderer renderer(robot.camera, world, optionsOf(robot.camera));
+  std::mt19937_64 rng(seed);
+  const cv::Mat image = renderer.render({view.pose}, rng);
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  const sim::ChessboardConfig& b = world.chessboards[view.board];
+  const std::vector<cv::Point2f> truth = projectTruth(robot.camera, view.pose, sim::chessboardCorners(b));
+  // Keep only this board in the image: mask everything far from its true corners, so that other
+  // boards in view cannot be found instead.
+  cv::Rect box = cv::boundingRect(truth);
+  box.x -= 40;
+  box.y -= 40;
+  box.width += 80;
+  box.height += 80;
+  box &= cv::Rect(0, 0, gray.cols, gray.rows);
+  cv::Mat roi(gray.size(), gray.type(), cv::Scalar(128));
+  gray(box).copyTo(roi(box));
+  std::vector<cv::Point2f> corners;
+  const bool found = cv::findChessboardCorners(roi, cv::Size(b.cols, b.rows), corners,
+                                               cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
+  EXPECT_TRUE(found) << "board " << view.board << " not detected";
+  if (!found) return 1e9;
+  EXPECT_EQ(corners.size(), truth.size());
+  cv::cornerSubPix(roi, corners, cv::Size(5, 5), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
+  return matchRms(corners, truth);
+}
+
+TEST(SimRenderer, CameraModelMatchesOpenCvProjection) {
+  sim::Intrinsics in;
+  in.fx = 318;
+  in.fy = 320.5;
+  in.cx = 325.4;
+  in.cy = 236.8;
+  const std::vector<std::pair<sim::DistortionModel, std::vector<double>>> models = {
+      {sim::DistortionModel::kPlumbBob, {-0.27, 0.065, 0.0011, -0.0007, 0.001}},
+      {sim::DistortionModel::kRationalPolynomial, {0.3, -0.1, 0.001, -0.002, 0.01, 0.6, -0.05, 0.02}},
+      {sim::DistortionModel::kEquidistant, {0.05, -0.01, 0.004, -0.001}}};
+  std::mt19937_64 rng(3);
+  // Points within the field of view where each model is one-to-one (|x/z|, |y/z| <= 0.8).
+  std::uniform_real_distribution<double> xy(-0.8, 0.8), z(1.0, 3.0);
+  for (const auto& [model, coeffs] : models) {
+    in.distortion_model = model;
+    in.distortion_coefficients = coeffs;
+    sim::CameraConfig cam;
+    cam.truth = in;
+    const sim::CameraModel m(in);
+    for (int i = 0; i < 200; ++i) {
+      const Eigen::Vector3d p(xy(rng), xy(rng), z(rng));
+      Eigen::Vector2d mine;
+      ASSERT_TRUE(m.project(p, &mine));
+      // Compare with OpenCV (camera at the world origin: pose identity for a camera-frame point).
+      std::vector<cv::Point3d> pts{{p.x(), p.y(), p.z()}};
+      std::vector<cv::Point2d> cvp;
+      if (model == sim::DistortionModel::kEquidistant) {
+        cv::fisheye::projectPoints(pts, cvp, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(in),
+                                   cv::Mat(coeffs, true));
+      } else {
+        cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(in), cv::Mat(coeffs, true), cvp);
+      }
+      EXPECT_NEAR(mine.x(), cvp[0].x, 1e-6);
+      EXPECT_NEAR(mine.y(), cvp[0].y, 1e-6);
+      // And the ray through that pixel points back at the point.
+      Eigen::Vector3d ray;
+      ASSERT_TRUE(m.ray(mine.x(), mine.y(), &ray));
+      EXPECT_NEAR(ray.dot(p.normalized()), 1.0, 1e-12) << sim::toString(model) << " " << p.transpose();
+    }
+  }
+}
+
+TEST(SimRenderer, ChessboardCornersLandWhereTheTrueCameraProjectsThem) {
+  const sim::RobotConfig robot = defaultRobot();
+  const sim::WorldConfig world = defaultWorld();
+  // Boards straight ahead, turned, near the image edge (strong distortion), and seen obliquely.
+  const std::vector<BoardView> views = {{2, {0, 0, 0.0}},   {1, {0, 0, -0.75}}, {3, {0, 0, 0.72}},
+                                        {2, {0, 0, 0.45}},  {0, {0.02, 0.01, -1.3}}, {4, {0, 0, 1.5}}};
+  double worst = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const double rms = boardCornerRms(robot, world, views[i], 100 + i);
+    std::cout << "view " << i << ": corner RMS " << rms << " px" << std::endl;
+    RecordProperty("board_rms_px_" + std::to_string(i), std::to_string(rms));
+    EXPECT_LT(rms, 0.15) << "view " << i << " (board " << views[i].board << ")";
+    worst = std::max(worst, rms);
+  }
+  std::cout << "worst corner RMS " << worst << " px" << std::endl;
+}
+
+TEST(SimRenderer, FisheyeCameraRendersTrueCornersToo) {
+  sim::RobotConfig robot = defaultRobot();
+  robot.camera.truth.distortion_model = sim::DistortionModel::kEquidistant;
+  robot.camera.truth.distortion_coefficients = {0.02, -0.005, 0.001, 0.0};
+  robot.camera.truth.fx = robot.camera.truth.fy = 270;
+  const double rms = boardCornerRms(robot, defaultWorld(), {2, {0, 0, 0.0}}, 7);
+  EXPECT_LT(rms, 0.15);
+}
+
+TEST(SimRenderer, FloorTagIsDetectedWithItsIdAndTruePose) {
+  const sim::RobotConfig robot = defaultRobot();
+  const sim::WorldConfig world = defaultWorld();
+  sim::Renderer renderer(robot.camera, world, optionsOf(robot.camera));
+  // Facing the tag strip from the start position.
+  const sim::Pose2 pose{-0.02, 0.01, M_PI - 0.05};
+  std::mt19937_64 rng(5);
+  const cv::Mat image = renderer.render({pose}, rng);
+  cv::Mat gray, rectified;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  // The lens bends the tags' straight edges; libapriltag fits straight lines, so detect on the
+  // image rectified with the TRUE intrinsics (DESIGN: tag poses from undistorted corners).
+  const cv::Mat K = cameraMatrix(robot.camera.truth);
+  const cv::Mat D(robot.camera.truth.distortion_coefficients, true);
+  cv::undistort(gray, rectified, K, D, K);
+
+  apriltag_family_t* family = tag36h11_create();
+  apriltag_detector_t* detector = apriltag_detector_create();
+  apriltag_detector_add_family(detector, family);
+  detector->quad_decimate = 1.0;
+  image_u8_t im{rectified.cols, rectified.rows, static_cast<int32_t>(rectified.step), rectified.data};
+  zarray_t* detections = apriltag_detector_detect(detector, &im);
+
+  const Eigen::Isometry3d cam_from_world = sim::cameraInWorld(robot.camera, pose).inverse();
+  std::set<int> seen;
+  for (int i = 0; i < zarray_size(detections); ++i) {
+    apriltag_detection_t* det;
+    zarray_get(detections, i, &det);
+    ASSERT_GE(det->id, 0);
+    ASSERT_LT(det->id, static_cast<int>(world.floor_tags.size())) << "a tag id that is not in the world";
+    const sim::FloorTagConfig& tag = world.floor_tags[det->id];
+    seen.insert(det->id);
+    // Corners in libapriltag's order land on the true tag's corners in that order (projected
+    // by the pinhole K: the image is rectified).
+    const auto corners = sim::tagCorners(tag);
+    std::vector<cv::Point3d> cam_pts;
+    for (const auto& c : corners) {
+      const Eigen::Vector3d q = cam_from_world * c;
+      cam_pts.emplace_back(q.x(), q.y(), q.z());
+    }
+    std::vector<cv::Point2d> truth;
+    cv::projectPoints(cam_pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, cv::noArray(), truth);
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_LT(cv::norm(cv::Point2d(det->p[k][0], det->p[k][1]) - truth[k]), 1.0)
+          << "tag " << det->id << " corner " << k;
+    }
+    if (det->id > 1) continue;  // pose accuracy for the near tags that wheel calibration uses
+    // Pose from the detected corners and the TRUE intrinsics.
+    const double h = 0.5 * tag.size_m;
+    const std::vector<cv::Point3d> object{{-h, h, 0}, {h, h, 0}, {h, -h, 0}, {-h, -h, 0}};
+    std::vector<cv::Point2d> pixels;
+    for (int k = 0; k < 4; ++k) pixels.emplace_back(det->p[k][0], det->p[k][1]);
+    cv::Vec3d rvec, tvec;
+    ASSERT_TRUE(cv::solvePnP(object, pixels, K, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE_SQUARE));
+    cv::Matx33d Rcv;
+    cv::Rodrigues(rvec, Rcv);
+    Eigen::Matrix3d R;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) R(r, c) = Rcv(r, c);
+    const Eigen::Isometry3d truth_pose = cam_from_world * sim::tagInWorld(tag);
+    const double position_error = (Eigen::Vector3d(tvec[0], tvec[1], tvec[2]) - truth_pose.translation()).norm();
+    const double angle_error = Eigen::AngleAxisd(R.transpose() * truth_pose.linear()).angle();
+    std::cout << "tag " << det->id << ": position error " << position_error * 1000 << " mm, angle error "
+              << angle_error * 180 / M_PI << " deg" << std::endl;
+    EXPECT_LT(position_error, 0.01) << "tag " << det->id;
+    EXPECT_LT(angle_error, M_PI / 180) << "tag " << det->id;
+  }
+  // The tags within 0.4 m of the camera have cells of 2 px or more: they must be found. (Tag 2,
+  // 0.5 m away, is seen so obliquely that its cells are about 1 px tall: undecodable.)
+  EXPECT_TRUE(seen.count(0) && seen.count(1)) << "the nearest tags were not all detected";
+  apriltag_detections_destroy(detections);
+  apriltag_detector_destroy(detector);
+  tag36h11_destroy(family);
+}
+
+TEST(SimRenderer, SameSeedSameImageOtherSeedOtherNoise) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  std::mt19937_64 a(9), b(9), c(10);
+  const cv::Mat ia = renderer.render({{0, 0, 0.2}}, a), ib = renderer.render({{0, 0, 0.2}}, b),
+                ic = renderer.render({{0, 0, 0.2}}, c);
+  EXPECT_EQ(cv::norm(ia, ib, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(ia, ic, cv::NORM_INF), 0.0);
+  // The noise has the configured standard deviation.
+  cv::Mat diff;
+  cv::subtract(ia, ic, diff, cv::noArray(), CV_32F);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(diff.reshape(1), mean, stddev);
+  EXPECT_NEAR(stddev[0] / std::sqrt(2.0), robot.camera.noise_sigma, 0.2 * robot.camera.noise_sigma);
+}
+
+TEST(SimRenderer, MotionDuringExposureBlursTheImage) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  std::mt19937_64 rng(1);
+  auto sharpness = [](const cv::Mat& bgr) {
+    cv::Mat gray, lap;
+    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    cv::Laplacian(gray, lap, CV_32F);
+    cv::Scalar m, s;
+    cv::meanStdDev(lap, m, s);
+    return s[0];
+  };
+  const cv::Mat still = renderer.render({{0, 0, 0}}, rng);
+  std::vector<sim::Pose2> turning;
+  for (int k = 0; k < 8; ++k) turning.push_back({0, 0, 0.004 * k});  // ~1.3 px per sample
+  const cv::Mat blurred = renderer.render(turning, rng);
+  EXPECT_LT(sharpness(blurred), 0.7 * sharpness(still));
+}
+
+}  // namespace

@@ -15,7 +15,7 @@ JOBS ?= 2
 
 DEBS := build-essential cmake catkin ros-base-dev libroscpp-dev python3-rostest librostest-dev \
   python3-roslaunch rosbash python3-rosbag librosbag-dev python3-rosnode python3-rostopic \
-  libcv-bridge-dev libcamera-calibration-parsers-dev libtf2-ros-dev libsensor-msgs-dev \
+  libroslib-dev libros-rosgraph-msgs-dev libcv-bridge-dev libcamera-calibration-parsers-dev libtf2-ros-dev libsensor-msgs-dev \
   libgeometry-msgs-dev libnav-msgs-dev libstd-srvs-dev ros-message-generation \
   libbox2d-dev libapriltag-dev libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev \
   libbenchmark-dev opencv-doc python3-camera-calibration python3-opencv python3-cv-bridge \

@@ -17,3 +17,8 @@ endif()
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sim_range_config SOURCES test/sim/test_range_and_config.cpp LIBS autocal_sim_core)
 endif()
+
+# The simulator node.
+add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp)
+target_link_libraries(sim_node autocal_sim_core)
+autocal_ros_target(sim_node)

@@ -1,0 +1,79 @@
+// The simulator's ROS node: steps the Box2D world on its own clock (/clock, with a real-time
+// factor), drives the wheels from wheels_cmd (with a watchdog), and publishes what a Duckiebot
+// publishes — camera (JPEG and raw, camera_info with the NOMINAL model), wheel encoders, range —
+// plus the ground truth, on its own topics only.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <memory>
+#include <random>
+#include <string>
+
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
+#include "msgs.h"
+
+namespace tf2_ros {
+class TransformBroadcaster;
+}
+
+namespace autocal {
+namespace sim {
+
+struct SimNodeOptions {
+  std::string robot_config;
+  std::string world_config;
+  double real_time_factor = 1.0;  ///< 0: as fast as possible
+  int seed = 1;
+  double physics_rate_hz = 1000.0;
+  double clock_rate_hz = 200.0;  ///< /clock messages per simulated second
+  double wheels_cmd_timeout_s = 0.5;
+  double ground_truth_rate_hz = 50.0;
+  double status_rate_hz = 1.0;
+  bool camera_enabled = true;
+  int max_blur_samples = 8;
+  std::string vehicle;  ///< frame prefix, from the namespace
+  std::string world_frame = "world";
+  double duration_s = 0.0;  ///< stop after this much simulated time (0: run until shutdown)
+};
+
+class SimNode {
+ public:
+  /// Reads parameters and configs; throws autocal::Error (ConfigError) on bad ones.
+  SimNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~SimNode();
+  /// Runs until shutdown (or duration_s of simulated time).
+  void run();
+
+ private:
+  void onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
+  void publishClock();
+  void publishEncoders();
+  void publishRange();
+  void publishCamera(double capture_s);
+  void publishGroundTruth();
+  void publishStatus(double achieved_rtf);
+  ros::Time stamp(double t_s) const { return ros::Time(t_s); }
+
+  ros::NodeHandle nh_, pnh_;
+  SimNodeOptions options_;
+  RobotConfig robot_;
+  WorldConfig world_;
+  std::unique_ptr<Simulation> sim_;
+  std::unique_ptr<Renderer> renderer_;
+  std::mt19937_64 camera_rng_, range_rng_;
+
+  ros::Subscriber wheels_cmd_sub_;
+  ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_, compressed_pub_,
+      camera_info_pub_, ground_truth_pub_, status_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+
+  double last_cmd_s_ = -1e9;
+  bool watchdog_stopped_ = true;
+  std::string camera_frame_, range_frame_, base_frame_, ground_truth_frame_;
+};
+
+}  // namespace sim
+}  // namespace autocal

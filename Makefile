@@ -40,7 +40,10 @@ deps:
 
 build: deps
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-	  -DCATKIN_ENABLE_TESTING=ON
+	  -DCATKIN_ENABLE_TESTING=ON -DCATKIN_DEVEL_PREFIX=$(CURDIR)/devel
+	@# rosrun ignores executables under <package>/build/, so the devel space lives in ./devel;
+	@# build/devel is a link to it, and build/devel/setup.bash is the script to source.
+	ln -sfn $(CURDIR)/devel $(BUILD_DIR)/devel
 	cmake --build $(BUILD_DIR) -- -j$(JOBS)
 	cmake --build $(BUILD_DIR) --target tests -- -j$(JOBS)
 
@@ -60,4 +63,4 @@ bench: build
 	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home scripts/bench.sh
 
 clean:
-	rm -rf $(BUILD_DIR)
+	rm -rf $(BUILD_DIR) devel

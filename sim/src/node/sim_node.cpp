@@ -263,7 +263,7 @@ void SimNode::run() {
     return true;
   };
   const ros::WallTime wall_start = ros::WallTime::now();
-  double rtf_wall_mark = 0, rtf_sim_mark = 0, achieved_rtf = 0;
+  double rtf_sim_mark = 0, achieved_rtf = 0;
   ros::WallTime rtf_mark = wall_start;
   publishClock();
   publishStatus(0.0);
@@ -296,7 +296,6 @@ void SimNode::run() {
       if (target > now) (target - now).sleep();
     }
   }
-  (void)rtf_wall_mark;
   sim_->setDuty(0.0, 0.0);
 }
 

@@ -6,8 +6,11 @@
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "sim_node");
+  // Held here, not only inside the node: when the last NodeHandle goes, ROS shuts down and with it
+  // the logging, so the FATAL message below would be lost.
+  ros::NodeHandle nh, pnh("~");
   try {
-    autocal::sim::SimNode node(ros::NodeHandle(), ros::NodeHandle("~"));
+    autocal::sim::SimNode node(nh, pnh);
     node.run();
   } catch (const autocal::Error& e) {
     ROS_FATAL_STREAM("sim_node: " << e.what());

@@ -1,0 +1,321 @@
+// rostest of the simulator node (run by test/sim/*.test, each selecting its cases with a gtest
+// filter): every topic at its configured rate on sim time; the robot moves on wheels_cmd and the
+// watchdog stops it; a bad config makes the node exit non-zero. Checked against the simulator's
+// ground truth and against the config files, never against what the node says about itself.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <rosgraph_msgs/Clock.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Range.h>
+#include <sys/wait.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "autocal/sim/config.h"
+#include "msgs.h"
+
+namespace {
+
+using autocal::dtmsg::WheelEncoderStamped;
+using autocal::dtmsg::WheelsCmdStamped;
+
+std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"; }
+
+/// Spins until sim time reaches `t_s` or `wall_timeout_s` of wall time pass; false on timeout.
+bool spinUntilSimTime(double t_s, double wall_timeout_s) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    if (ros::Time::isValid() && ros::Time::now().toSec() >= t_s) return true;
+    ros::WallDuration(0.002).sleep();
+  }
+  return false;
+}
+
+/// Header stamps received per topic.
+struct StampLog {
+  std::map<std::string, std::vector<double>> stamps;
+  template <class M>
+  ros::Subscriber track(ros::NodeHandle& nh, const std::string& topic) {
+    return nh.subscribe<M>(topic, 2000, [this, topic](const boost::shared_ptr<const M>& m) {
+      stamps[topic].push_back(m->header.stamp.toSec());
+    });
+  }
+  double rateIn(const std::string& topic, double t0_s, double t1_s) const {
+    auto it = stamps.find(topic);
+    if (it == stamps.end()) return 0.0;
+    int n = 0;
+    for (double t : it->second) n += (t >= t0_s && t < t1_s) ? 1 : 0;
+    return n / (t1_s - t0_s);
+  }
+};
+
+TEST(SimNode, PublishesEveryTopicAtItsRateOnSimTime) {
+  const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(robotConfigPath());
+  ros::NodeHandle nh("autobot");
+  StampLog log;
+  std::vector<ros::Subscriber> subs;
+  subs.push_back(log.track<WheelEncoderStamped>(nh, "left_wheel_encoder_node/tick"));
+  subs.push_back(log.track<WheelEncoderStamped>(nh, "right_wheel_encoder_node/tick"));
+  subs.push_back(log.track<sensor_msgs::Range>(nh, "front_center_tof_driver_node/range"));
+  subs.push_back(log.track<sensor_msgs::CameraInfo>(nh, "camera_node/camera_info"));
+  subs.push_back(log.track<nav_msgs::Odometry>(nh, "sim/ground_truth"));
+  std::vector<double> clock_s;
+  subs.push_back(nh.subscribe<rosgraph_msgs::Clock>(
+      "/clock", 5000, [&](const rosgraph_msgs::Clock::ConstPtr& m) { clock_s.push_back(m->clock.toSec()); }));
+  sensor_msgs::CompressedImage::ConstPtr last_jpeg;
+  sensor_msgs::Image::ConstPtr last_raw;
+  sensor_msgs::CameraInfo::ConstPtr last_info;
+  WheelEncoderStamped::ConstPtr last_tick;
+  subs.push_back(nh.subscribe<sensor_msgs::CompressedImage>(
+      "camera_node/image/compressed", 200, [&](const sensor_msgs::CompressedImage::ConstPtr& m) {
+        log.stamps["jpeg"].push_back(m->header.stamp.toSec());
+        last_jpeg = m;
+      }));
+  subs.push_back(nh.subscribe<sensor_msgs::Image>("camera_node/image/raw", 200,
+                                                  [&](const sensor_msgs::Image::ConstPtr& m) {
+                                                    log.stamps["raw"].push_back(m->header.stamp.toSec());
+                                                    last_raw = m;
+                                                  }));
+  subs.push_back(nh.subscribe<sensor_msgs::CameraInfo>(
+      "camera_node/camera_info", 10, [&](const sensor_msgs::CameraInfo::ConstPtr& m) { last_info = m; }));
+  subs.push_back(nh.subscribe<WheelEncoderStamped>(
+      "left_wheel_encoder_node/tick", 10, [&](const WheelEncoderStamped::ConstPtr& m) { last_tick = m; }));
+
+  // Measure over [2, 5) s of sim time: the subscriptions are connected well before.
+  const double t0 = 2.0, t1 = 5.0;
+  ASSERT_TRUE(spinUntilSimTime(t1 + 0.3, 90.0)) << "sim time did not reach " << t1 << " s";
+  ASSERT_TRUE(ros::Time::isSimTime());
+
+  struct Expect {
+    std::string topic;
+    double rate_hz;
+  };
+  const std::vector<Expect> expected{{"left_wheel_encoder_node/tick", robot.encoder_rate_hz},
+                                     {"right_wheel_encoder_node/tick", robot.encoder_rate_hz},
+                                     {"front_center_tof_driver_node/range", robot.range_sensor.rate_hz},
+                                     {"camera_node/camera_info", robot.camera.rate_hz},
+                                     {"jpeg", robot.camera.rate_hz},
+                                     {"raw", robot.camera.rate_hz},
+                                     {"sim/ground_truth", 50.0}};
+  for (const Expect& e : expected) {
+    const double rate = log.rateIn(e.topic, t0, t1);
+    EXPECT_NEAR(rate, e.rate_hz, 0.05 * e.rate_hz + 0.34) << e.topic;
+    // Stamps are sim time: never ahead of the clock, never going back.
+    const std::vector<double>& s = log.stamps[e.topic];
+    for (size_t i = 1; i < s.size(); ++i) ASSERT_GE(s[i], s[i - 1]) << e.topic;
+    if (!s.empty()) EXPECT_LE(s.back(), ros::Time::now().toSec() + 1e-9) << e.topic;
+  }
+  int clock_in_window = 0;
+  for (double t : clock_s) clock_in_window += (t >= t0 && t < t1) ? 1 : 0;
+  EXPECT_NEAR(clock_in_window / (t1 - t0), 200.0, 10.0) << "/clock";
+
+  // The images are what the config says, and camera_info carries the NOMINAL model, not the truth.
+  ASSERT_TRUE(last_jpeg && last_raw && last_info && last_tick);
+  EXPECT_EQ(last_jpeg->format, "jpeg");
+  const cv::Mat decoded = cv::imdecode(last_jpeg->data, cv::IMREAD_COLOR);
+  ASSERT_FALSE(decoded.empty()) << "the JPEG does not decode";
+  EXPECT_EQ(decoded.cols, robot.camera.truth.width);
+  EXPECT_EQ(decoded.rows, robot.camera.truth.height);
+  EXPECT_EQ(last_raw->encoding, "bgr8");
+  EXPECT_EQ(static_cast<int>(last_raw->width), robot.camera.truth.width);
+  EXPECT_EQ(last_raw->data.size(), static_cast<size_t>(last_raw->step) * last_raw->height);
+  EXPECT_DOUBLE_EQ(last_info->K[0], robot.camera.nominal.fx);
+  EXPECT_DOUBLE_EQ(last_info->K[4], robot.camera.nominal.fy);
+  EXPECT_NE(last_info->K[0], robot.camera.truth.fx);
+  EXPECT_EQ(last_tick->resolution, robot.encoder_resolution);
+  EXPECT_EQ(last_tick->type, WheelEncoderStamped::ENCODER_TYPE_INCREMENTAL);
+  // A still robot's image is not flat: the scene is rendered.
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(decoded, mean, stddev);
+  EXPECT_GT(stddev[0], 10.0);
+}
+
+/// Ground truth and encoder ticks as they arrive.
+struct DriveLog {
+  std::vector<nav_msgs::Odometry> truth;
+  int left_ticks = 0, right_ticks = 0;
+  bool have_ticks = false;
+  const nav_msgs::Odometry& last() const { return truth.back(); }
+  /// The last ground-truth sample stamped at or before t_s.
+  const nav_msgs::Odometry* at(double t_s) const {
+    const nav_msgs::Odometry* found = nullptr;
+    for (const auto& o : truth)
+      if (o.header.stamp.toSec() <= t_s) found = &o;
+    return found;
+  }
+};
+
+double distance(const nav_msgs::Odometry& a, const nav_msgs::Odometry& b) {
+  return std::hypot(a.pose.pose.position.x - b.pose.pose.position.x,
+                    a.pose.pose.position.y - b.pose.pose.position.y);
+}
+
+/// Publishes the duty every ~20 ms (wall) until sim time t_end_s.
+void drive(ros::Publisher& pub, float left, float right, double t_end_s) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(120.0);
+  while (ros::ok() && ros::Time::now().toSec() < t_end_s && ros::WallTime::now() < deadline) {
+    WheelsCmdStamped cmd;
+    cmd.header.stamp = ros::Time::now();
+    cmd.vel_left = left;
+    cmd.vel_right = right;
+    pub.publish(cmd);
+    ros::spinOnce();
+    ros::WallDuration(0.02).sleep();
+  }
+}
+
+TEST(SimNode, MovesOnWheelsCmdAndTheWatchdogStopsIt) {
+  const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(robotConfigPath());
+  ros::NodeHandle nh("autobot");
+  DriveLog log;
+  ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 5000, [&](const nav_msgs::Odometry::ConstPtr& m) { log.truth.push_back(*m); });
+  ros::Subscriber left_sub = nh.subscribe<WheelEncoderStamped>(
+      "left_wheel_encoder_node/tick", 100, [&](const WheelEncoderStamped::ConstPtr& m) {
+        log.left_ticks = m->data;
+        log.have_ticks = true;
+      });
+  ros::Subscriber right_sub = nh.subscribe<WheelEncoderStamped>(
+      "right_wheel_encoder_node/tick", 100,
+      [&](const WheelEncoderStamped::ConstPtr& m) { log.right_ticks = m->data; });
+  ros::Publisher cmd_pub = nh.advertise<WheelsCmdStamped>("wheels_driver_node/wheels_cmd", 10);
+
+  ASSERT_TRUE(spinUntilSimTime(1.0, 60.0));
+  ASSERT_TRUE(log.have_ticks && !log.truth.empty());
+  // Untouched, the robot stands still.
+  const nav_msgs::Odometry start = log.last();
+  const int left0 = log.left_ticks, right0 = log.right_ticks;
+  EXPECT_LT(std::abs(start.pose.pose.position.x), 1e-6);
+
+  // Backwards at duty -0.5 for 2 s (the boards are in front of the robot).
+  const double duty = 0.5;
+  const double t_go = ros::Time::now().toSec();
+  drive(cmd_pub, -duty, -duty, t_go + 2.0);
+  const double t_stop = ros::Time::now().toSec();
+  ASSERT_TRUE(spinUntilSimTime(t_stop + 0.25, 30.0));
+  const nav_msgs::Odometry* before_watchdog = log.at(t_stop + 0.25);
+  ASSERT_NE(before_watchdog, nullptr);
+  // Still moving before the watchdog's timeout: it holds the last command, it does not cut at once.
+  EXPECT_LT(before_watchdog->twist.twist.linear.x, -0.1);
+
+  // Expected speed from the config: (duty - deadband) / (1 - deadband) of the full wheel speed.
+  const double wheel_rad_s = robot.motor_constant * (duty - robot.deadband) / (1.0 - robot.deadband);
+  const double v_expected = 0.5 * wheel_rad_s *
+                            (robot.motor_gain_left * robot.wheel_radius_left +
+                             robot.motor_gain_right * robot.wheel_radius_right);
+  const double driven = distance(*before_watchdog, start);
+  const double driven_expected = v_expected * (t_stop + 0.25 - t_go);
+  EXPECT_NEAR(driven, driven_expected, 0.1 * driven_expected);
+  EXPECT_LT(before_watchdog->pose.pose.position.x, start.pose.pose.position.x - 0.3) << "not backwards";
+
+  // After the timeout plus the motors' lag, the robot stands still.
+  const double settled = t_stop + robot.motor_time_constant * 10 + 0.5 + 0.2;
+  ASSERT_TRUE(spinUntilSimTime(settled + 1.5, 30.0));
+  const nav_msgs::Odometry* a = log.at(settled);
+  const nav_msgs::Odometry* b = log.at(settled + 1.5);
+  ASSERT_TRUE(a && b);
+  EXPECT_LT(distance(*a, *b), 1e-3) << "the watchdog did not stop the robot";
+  EXPECT_LT(std::abs(b->twist.twist.linear.x), 1e-3);
+  // Encoders counted the way back: ticks x 2 pi r / resolution ~ distance.
+  const double left_m = (log.left_ticks - left0) * 2 * M_PI * robot.wheel_radius_left / robot.encoder_resolution;
+  const double right_m =
+      (log.right_ticks - right0) * 2 * M_PI * robot.wheel_radius_right / robot.encoder_resolution;
+  EXPECT_LT(left_m, 0.0);
+  EXPECT_NEAR(0.5 * (left_m + right_m), -distance(*b, start), 0.02);
+
+  // Bad commands: NaN is dropped (the robot stays still), |duty| > 1 is clamped to 1.
+  drive(cmd_pub, std::nanf(""), std::nanf(""), ros::Time::now().toSec() + 0.5);
+  const nav_msgs::Odometry after_nan = log.last();
+  EXPECT_LT(distance(after_nan, *b), 1e-3) << "a NaN command moved the robot";
+  drive(cmd_pub, 5.0f, 5.0f, ros::Time::now().toSec() + 1.0);
+  ros::spinOnce();
+  const double full_speed = 0.5 * robot.motor_constant *
+                            (robot.motor_gain_left * robot.wheel_radius_left +
+                             robot.motor_gain_right * robot.wheel_radius_right);
+  EXPECT_NEAR(log.last().twist.twist.linear.x, full_speed, 0.05 * full_speed);
+  // Stop explicitly.
+  drive(cmd_pub, 0.0f, 0.0f, ros::Time::now().toSec() + 0.3);
+}
+
+/// Runs the node binary with the given arguments; returns its exit status and output.
+int runNode(const std::string& args, std::string* output) {
+  // A new node name per run: private parameters set by `_key:=value` stay on the master.
+  static int run = 0;
+  const std::string cmd = std::string(SIM_NODE_BIN) + " __name:=sim_under_test_" + std::to_string(++run) + " " +
+                          args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return -1;
+  char buffer[512];
+  while (fgets(buffer, sizeof(buffer), pipe)) output->append(buffer);
+  const int status = pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string writeTemp(const std::string& name, const std::string& contents) {
+  const std::string path = "/tmp/autocal_test_sim_" + std::to_string(getpid()) + "_" + name;
+  std::ofstream(path) << contents;
+  return path;
+}
+
+std::string readAll(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
+  const std::string good_robot = readAll(robotConfigPath());
+  ASSERT_FALSE(good_robot.empty());
+  const std::string common = "__ns:=/badcfg _real_time_factor:=0 _camera_enabled:=false _duration_s:=0.2";
+
+  // Control: the shipped config runs and ends cleanly, so a failure below is the config's doing.
+  {
+    std::string out;
+    EXPECT_EQ(runNode(common, &out), 0) << out;
+  }
+  struct Case {
+    std::string name, contents, must_mention;
+  };
+  std::string unknown = good_robot + "\nwheel_radius_lft: 0.03\n";
+  std::string malformed = good_robot;
+  malformed.replace(malformed.find("wheelbase: 0.102"), 16, "wheelbase: abc  ");
+  std::string negative = good_robot;
+  negative.replace(negative.find("wheelbase: 0.102"), 16, "wheelbase: -0.1 ");
+  const std::vector<Case> cases{{"unknown.yaml", unknown, "wheel_radius_lft"},
+                                {"malformed.yaml", malformed, "wheelbase"},
+                                {"negative.yaml", negative, "wheelbase"},
+                                {"not_yaml.yaml", "camera: [unclosed\n", "not_yaml.yaml"}};
+  for (const Case& c : cases) {
+    const std::string path = writeTemp(c.name, c.contents);
+    std::string out;
+    const int status = runNode(common + " _robot_config:=" + path, &out);
+    EXPECT_NE(status, 0) << c.name << ": " << out;
+    EXPECT_NE(out.find(path), std::string::npos) << c.name << ": the error does not name the file: " << out;
+    EXPECT_NE(out.find(c.must_mention), std::string::npos) << c.name << ": " << out;
+    std::remove(path.c_str());
+  }
+  {
+    std::string out;
+    EXPECT_NE(runNode(common + " _world_config:=/nonexistent/world.yaml", &out), 0) << out;
+    EXPECT_NE(out.find("/nonexistent/world.yaml"), std::string::npos) << out;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_sim_node", ros::init_options::AnonymousName);
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

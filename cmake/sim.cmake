@@ -34,3 +34,8 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/sim/sim_drive.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_bad_config.test DEPENDENCIES test_sim_node sim_node)
 endif()
+
+# make bench: render time and real-time factor (ROS-free).
+add_executable(sim_bench bench/sim_bench.cpp)
+target_link_libraries(sim_bench autocal_sim_core)
+set_target_properties(sim_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)

@@ -555,6 +555,23 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
       }
     }
   }
+  // A 4 x 4 block may be blended from its outer corners only if all its 25 corners are valid rays.
+  if (width_ % 4 == 0 && height_ % 4 == 0) {
+    block4_valid_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 1);
+    for (int v = 0; v <= height_; ++v) {
+      for (int u = 0; u <= width_; ++u) {
+        if (corner_valid_[static_cast<size_t>(v * (width_ + 1) + u)]) continue;
+        // This corner belongs to the blocks on either side of it.
+        for (int bv : {v / 4 - (v % 4 == 0 ? 1 : 0), v / 4}) {
+          for (int bu : {u / 4 - (u % 4 == 0 ? 1 : 0), u / 4}) {
+            if (bv >= 0 && bu >= 0 && bv < height_ / 4 && bu < width_ / 4) {
+              block4_valid_[static_cast<size_t>(bv * (width_ / 4) + bu)] = 0;
+            }
+          }
+        }
+      }
+    }
+  }
   // Sample positions within an edge pixel: a Hammersley set of ss^2 points (one per row and per
   // column of the ss^2 x ss^2 grid), which measures the area an edge covers in ss^2 steps
   // whatever its direction, where a regular ss x ss grid has only ss steps for axis-aligned edges.
@@ -581,7 +598,7 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
 
 Renderer::~Renderer() = default;
 
-void Renderer::renderPose(const Pose2& pose, float* acc) const {
+void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
   scene_->prepare(origin, pose.yaw_rad);
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -621,7 +638,7 @@ void Renderer::renderPose(const Pose2& pose, float* acc) const {
       alike = std::max(std::max(a.g, b.g), std::max(e.g, f.g)) - std::min(std::min(a.g, b.g), std::min(e.g, f.g)) <= thr &&
               std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
     }
-    if (alike || sample_offsets_.size() <= 1) {
+    if (alike || !antialias || sample_offsets_.size() <= 1) {
       out[0] += 0.25f * (a.b + b.b + e.b + f.b);
       out[1] += 0.25f * (a.g + b.g + e.g + f.g);
       out[2] += 0.25f * (a.r + b.r + e.r + f.r);
@@ -656,62 +673,86 @@ void Renderer::renderPose(const Pose2& pose, float* acc) const {
     }
     return;
   }
-  // Trace every other corner first. A 2 x 2 block of pixels whose four outer corners lie on the
-  // same unmarked surface (plain floor, sky, bare wall, a box face) with alike colours holds no
-  // edge: its pixels are the bilinear blend of those corners (the mean of a pixel's corners is
-  // the blend at its centre). Any other block is traced corner by corner and shaded per pixel.
-  for (int v = 0; v <= height_; v += 2) {
-    for (int u = 0; u <= width_; u += 2) traceCorner(static_cast<size_t>(v * W + u));
+  // Coarse to fine. A block of pixels whose four outer corners lie on the same unmarked surface
+  // (plain floor, sky, bare wall, a box face) with alike colours holds no edge: its pixels are the
+  // bilinear blend of those corners (the mean of a pixel's corners is the blend at its centre).
+  // Blocks of 4 x 4 pixels are tried first, then their 2 x 2 quarters; any other 2 x 2 block is
+  // traced corner by corner and shaded per pixel.
+  const auto smoothCorners = [&](size_t a, size_t b, size_t e, size_t f) {
+    const int block_id = id[a];
+    if (block_id < 0 || (block_id & kMarked) || id[b] != block_id || id[e] != block_id || id[f] != block_id) {
+      return false;
+    }
+    const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
+    const float rb_a = ca.r + ca.b, rb_b = cb.r + cb.b, rb_e = ce.r + ce.b, rb_f = cf.r + cf.b;
+    return std::max(std::max(ca.g, cb.g), std::max(ce.g, cf.g)) - std::min(std::min(ca.g, cb.g), std::min(ce.g, cf.g)) <= thr &&
+           std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
+  };
+  // Fills an n x n block of pixels at (u, v) with the bilinear blend of its outer corners.
+  const auto blend = [&](int u, int v, int n, size_t a, size_t b, size_t e, size_t f) {
+    const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
+    const float inv = 1.0f / static_cast<float>(n);
+    for (int j = 0; j < n; ++j) {
+      const float y = (static_cast<float>(j) + 0.5f) * inv;
+      float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
+      for (int i = 0; i < n; ++i, out += 3) {
+        const float x = (static_cast<float>(i) + 0.5f) * inv;
+        const float wa = (1 - x) * (1 - y), wb = x * (1 - y), we = (1 - x) * y, wf = x * y;
+        out[0] += wa * ca.b + wb * cb.b + we * ce.b + wf * cf.b;
+        out[1] += wa * ca.g + wb * cb.g + we * ce.g + wf * cf.g;
+        out[2] += wa * ca.r + wb * cb.r + we * ce.r + wf * cf.r;
+      }
+    }
+  };
+  const auto block2 = [&](int u, int v) {
+    const size_t a = static_cast<size_t>(v * W + u), b = a + 2, e = a + 2 * W, f = e + 2;
+    for (const size_t i : {a, b, e, f}) traceCorner(i);
+    // The inner corners must be valid lens rays too.
+    if (corner_valid_[a + 1] && corner_valid_[a + W] && corner_valid_[a + W + 1] && corner_valid_[a + W + 2] &&
+        corner_valid_[e + 1] && smoothCorners(a, b, e, f)) {
+      blend(u, v, 2, a, b, e, f);
+      return;
+    }
+    for (const size_t i : {a + 1, a + W, a + W + 1, a + W + 2, e + 1}) traceCorner(i);
+    shadePixel(u, v);
+    shadePixel(u + 1, v);
+    shadePixel(u, v + 1);
+    shadePixel(u + 1, v + 1);
+  };
+  const bool by4 = width_ % 4 == 0 && height_ % 4 == 0;
+  if (!by4) {
+    for (int v = 0; v < height_; v += 2) {
+      for (int u = 0; u < width_; u += 2) block2(u, v);
+    }
+    return;
   }
-  for (int v = 0; v < height_; v += 2) {
-    for (int u = 0; u < width_; u += 2) {
-      const size_t a = static_cast<size_t>(v * W + u), b = a + 2, e = a + 2 * W, f = e + 2;
-      const int block_id = id[a];
-      bool smooth = block_id >= 0 && !(block_id & kMarked) && id[b] == block_id && id[e] == block_id &&
-                    id[f] == block_id;
-      if (smooth) {
-        // The inner corners must be valid lens rays too.
-        smooth = corner_valid_[a + 1] && corner_valid_[a + W] && corner_valid_[a + W + 1] &&
-                 corner_valid_[a + W + 2] && corner_valid_[e + 1];
-      }
-      const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
-      if (smooth) {
-        const float rb_a = ca.r + ca.b, rb_b = cb.r + cb.b, rb_e = ce.r + ce.b, rb_f = cf.r + cf.b;
-        smooth = std::max(std::max(ca.g, cb.g), std::max(ce.g, cf.g)) - std::min(std::min(ca.g, cb.g), std::min(ce.g, cf.g)) <= thr &&
-                 std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
-      }
-      if (smooth) {
-        static constexpr float w[4][4] = {{9 / 16.f, 3 / 16.f, 3 / 16.f, 1 / 16.f},
-                                          {3 / 16.f, 9 / 16.f, 1 / 16.f, 3 / 16.f},
-                                          {3 / 16.f, 1 / 16.f, 9 / 16.f, 3 / 16.f},
-                                          {1 / 16.f, 3 / 16.f, 3 / 16.f, 9 / 16.f}};
-        for (int k = 0; k < 4; ++k) {
-          float* out = acc + 3 * (static_cast<size_t>(v + k / 2) * width_ + u + k % 2);
-          out[0] += w[k][0] * ca.b + w[k][1] * cb.b + w[k][2] * ce.b + w[k][3] * cf.b;
-          out[1] += w[k][0] * ca.g + w[k][1] * cb.g + w[k][2] * ce.g + w[k][3] * cf.g;
-          out[2] += w[k][0] * ca.r + w[k][1] * cb.r + w[k][2] * ce.r + w[k][3] * cf.r;
-        }
+  const int blocks_per_row = width_ / 4;
+  for (int v = 0; v < height_; v += 4) {
+    for (int u = 0; u < width_; u += 4) {
+      const size_t a = static_cast<size_t>(v * W + u), b = a + 4, e = a + 4 * W, f = e + 4;
+      for (const size_t i : {a, b, e, f}) traceCorner(i);
+      if (block4_valid_[static_cast<size_t>((v / 4) * blocks_per_row + u / 4)] && smoothCorners(a, b, e, f)) {
+        blend(u, v, 4, a, b, e, f);
         continue;
       }
-      for (const size_t i : {a + 1, a + W, a + W + 1, a + W + 2, e + 1}) traceCorner(i);
-      shadePixel(u, v);
-      shadePixel(u + 1, v);
-      shadePixel(u, v + 1);
-      shadePixel(u + 1, v + 1);
+      block2(u, v);
+      block2(u + 2, v);
+      block2(u, v + 2);
+      block2(u + 2, v + 2);
     }
   }
 }
 
 cv::Mat Renderer::renderExact(const Pose2& pose) const {
   cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  renderPose(pose, acc.ptr<float>());
+  renderPose(pose, true, acc.ptr<float>());
   return acc;
 }
 
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const {
   if (poses.empty()) throw InputError("renderer: no pose to render");
   cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  for (const Pose2& p : poses) renderPose(p, acc.ptr<float>());
+  for (const Pose2& p : poses) renderPose(p, poses.size() == 1, acc.ptr<float>());
   if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
   const size_t n = static_cast<size_t>(width_) * height_ * 3;
   const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);

@@ -47,7 +47,8 @@ class Renderer {
   Renderer& operator=(const Renderer&) = delete;
 
   /// The image (CV_8UC3, BGR) seen from the average of these robot poses over the exposure (one
-  /// pose: a still image). `rng` draws the noise offsets, so a seeded rng gives the same image.
+  /// pose: a still image). With several poses (motion blur) the sub-frames are not anti-aliased:
+  /// their average blurs the edges far more than a pixel, and it keeps blurred frames cheap. `rng` draws the noise offsets, so a seeded rng gives the same image.
   cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const;
 
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
@@ -59,7 +60,7 @@ class Renderer {
   int invalidPixels() const { return invalid_pixels_; }
 
  private:
-  void renderPose(const Pose2& pose, float* accumulate) const;
+  void renderPose(const Pose2& pose, bool antialias, float* accumulate) const;
 
   CameraConfig config_;
   CameraModel camera_;
@@ -70,6 +71,7 @@ class Renderer {
   std::vector<Eigen::Vector3f> corner_dirs_;
   std::vector<uint16_t> corner_bins_;
   std::vector<uint8_t> corner_valid_;
+  std::vector<uint8_t> block4_valid_;  ///< per 4 x 4 pixel block: all its corners are valid rays
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;

@@ -1,0 +1,136 @@
+// make bench, simulator part: render time per frame and the simulator's real-time factor with the
+// camera at its rate (30 Hz) and without it. ROS-free; run on one core (OpenCV threads off; the
+// script pins it with taskset). Prints a Markdown section on stdout.
+//   sim_bench ROBOT_YAML WORLD_YAML [sim_seconds]
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "autocal/errors.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace autocal::sim;
+
+double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+/// The drive pattern of a calibration: pivots and straight runs, changing every 2 s.
+void command(Simulation& sim) {
+  static const double pattern[][2] = {{0.0, 0.4}, {0.0, 0.0}, {0.4, 0.0}, {0.5, 0.5}, {-0.5, -0.5}, {0.0, 0.0}};
+  const int phase = static_cast<int>(sim.time_s() / 2.0) % 6;
+  sim.setDuty(pattern[phase][0], pattern[phase][1]);
+}
+
+/// Simulated seconds per wall second over sim_s of simulated time.
+double realTimeFactor(const RobotConfig& robot, const WorldConfig& world, const Renderer* renderer, double sim_s,
+                      int* frames) {
+  Simulation sim(robot, world, SimulationOptions());
+  std::mt19937_64 rng(7), range_rng(8);
+  const double frame_period_s = 1.0 / robot.camera.rate_hz;
+  const double range_period_s = 1.0 / robot.range_sensor.rate_hz;
+  double next_frame_s = 0, next_range_s = 0;
+  std::vector<uchar> jpeg;
+  *frames = 0;
+  const Clock::time_point t0 = Clock::now();
+  while (sim.time_s() < sim_s) {
+    command(sim);
+    sim.step();
+    if (sim.time_s() >= next_range_s) {
+      sim.measureRange(range_rng);
+      next_range_s += range_period_s;
+    }
+    if (renderer && sim.time_s() >= next_frame_s) {
+      // As the node does: blur over the exposure when moving, then JPEG.
+      const double t = sim.time_s();
+      const std::vector<Pose2> ends = sim.posesDuring(t - robot.camera.exposure_s, t, 2);
+      const double motion_px = robot.camera.truth.fx * std::abs(ends[1].yaw_rad - ends[0].yaw_rad);
+      const int samples = std::clamp(static_cast<int>(std::ceil(motion_px)), 1, 8);
+      const cv::Mat image = renderer->render(sim.posesDuring(t - robot.camera.exposure_s, t, samples), rng);
+      cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, robot.camera.jpeg_quality});
+      ++*frames;
+      next_frame_s += frame_period_s;
+    }
+  }
+  return sim_s / secondsSince(t0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: sim_bench ROBOT_YAML WORLD_YAML [sim_seconds]\n");
+    return 2;
+  }
+  try {
+    cv::setNumThreads(1);
+    const RobotConfig robot = loadRobotConfig(argv[1]);
+    const WorldConfig world = loadWorldConfig(argv[2]);
+    const double sim_s = argc > 3 ? std::stod(argv[3]) : 60.0;
+
+    // Render time: still frames at headings all around the start (boards in view or not).
+    std::vector<double> ms_by_ss[2];
+    const int supersampling[2] = {robot.camera.supersampling, 1};
+    for (int k = 0; k < 2; ++k) {
+      RenderOptions options;
+      options.supersampling = supersampling[k];
+      options.noise_sigma = robot.camera.noise_sigma;
+      Renderer renderer(robot.camera, world, options);
+      std::mt19937_64 rng(3);
+      for (int i = 0; i < 72; ++i) {
+        const Pose2 pose{0.0, 0.0, -M_PI + i * (2 * M_PI / 72)};
+        const Clock::time_point t0 = Clock::now();
+        const cv::Mat image = renderer.render({pose}, rng);
+        if (i >= 2) ms_by_ss[k].push_back(1000 * secondsSince(t0));  // the first two warm up
+        if (image.empty()) throw autocal::Error("empty render");
+      }
+    }
+    RenderOptions options;
+    options.supersampling = robot.camera.supersampling;
+    options.noise_sigma = robot.camera.noise_sigma;
+    Renderer renderer(robot.camera, world, options);
+    int frames_with = 0, frames_without = 0;
+    const double rtf_with = realTimeFactor(robot, world, &renderer, sim_s, &frames_with);
+    const double rtf_without = realTimeFactor(robot, world, nullptr, sim_s, &frames_without);
+
+    auto mean = [](const std::vector<double>& v) {
+      double s = 0;
+      for (double x : v) s += x;
+      return s / v.size();
+    };
+    std::printf("## Simulator (issue 2)\n\n");
+    std::printf("`build/bench/sim_bench` on one core (`taskset -c 0`, OpenCV threads off), default robot and world.\n");
+    std::printf("Render: %dx%d, 70 still frames at headings all around the start pose.\n", robot.camera.truth.width,
+                robot.camera.truth.height);
+    std::printf("Real-time factor: %.0f s of simulated driving (pivots, straight runs; physics %.0f Hz, range %.0f Hz),\n"
+                "with the camera rendered and JPEG-encoded at %.0f Hz (motion blur when moving) and without it.\n\n",
+                sim_s, SimulationOptions().physics_rate_hz, robot.range_sensor.rate_hz, robot.camera.rate_hz);
+    std::printf("| figure | measured | target |\n|---|---|---|\n");
+    std::printf("| render, supersampling %d (as in tests), median ms/frame | %.2f | <= 10 |\n", supersampling[0],
+                median(ms_by_ss[0]));
+    std::printf("| render, supersampling %d, mean / max ms/frame | %.2f / %.2f | |\n", supersampling[0],
+                mean(ms_by_ss[0]), *std::max_element(ms_by_ss[0].begin(), ms_by_ss[0].end()));
+    std::printf("| render, supersampling 1 (no anti-aliasing), median ms/frame | %.2f | |\n", median(ms_by_ss[1]));
+    std::printf("| real-time factor with camera at %.0f Hz (%d frames) | %.1f | >= 3 |\n", robot.camera.rate_hz,
+                frames_with, rtf_with);
+    std::printf("| real-time factor without camera | %.1f | >= 50 |\n", rtf_without);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "sim_bench: %s\n", e.what());
+    return 1;
+  }
+}

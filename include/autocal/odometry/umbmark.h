@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/dead_reckoning.h"
 
 namespace autocal {
@@ -71,6 +72,12 @@ double umbmarkEmaxSyst(const std::vector<ReturnError>& cw, const std::vector<Ret
 /// corners, while the robot moves with the `truth` parameters. Returns actual − computed end.
 ReturnError simulateUmbmarkSquare(const DiffDriveParams& truth, const DiffDriveParams& odometry,
                                   double side_m, bool clockwise);
+
+/// The result as the odometry file's record (method "umbmark"), with its inputs.
+OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,
+                                          const UmbmarkOptions& options,
+                                          const std::string& vehicle,
+                                          const std::string& errors_file);
 
 /// Reads `cw: [[x, y], ...]` and `ccw: [[x, y], ...]` [m] from a YAML file; InputError or
 /// ConfigError with the file and line on anything else.

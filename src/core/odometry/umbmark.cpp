@@ -38,7 +38,7 @@ ReturnError centreOfGravity(const std::vector<ReturnError>& errors) {
 
 std::string num(double v) {
   std::ostringstream ss;
-  ss.precision(6);
+  ss.precision(10);
   ss << v;
   return ss.str();
 }
@@ -192,6 +192,32 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
   r.c_L = 2.0 / (r.Ed + 1.0);
   r.c_R = 2.0 / (1.0 / r.Ed + 1.0);
   return r;
+}
+
+OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,
+                                          const UmbmarkOptions& options,
+                                          const std::string& vehicle,
+                                          const std::string& errors_file) {
+  OdometryCalibration c;
+  c.method = "umbmark";
+  c.expressions = toString(result.expressions);
+  c.vehicle = vehicle;
+  c.Ed = result.Ed;
+  c.Eb = result.Eb;
+  c.wheelbase_nominal_m = options.wheelbase_m;
+  c.wheelbase_m = result.wheelbase_actual_m;
+  c.c_L = result.c_L;
+  c.c_R = result.c_R;
+  c.inputs = {{"errors_file", "'" + errors_file + "'"},
+              {"side_m", num(options.side_m)},
+              {"wheelbase_nominal_m", num(options.wheelbase_m)},
+              {"runs_cw", std::to_string(result.runs_cw)},
+              {"runs_ccw", std::to_string(result.runs_ccw)},
+              {"x_cg_cw_m", num(result.x_cg_cw_m)},
+              {"y_cg_cw_m", num(result.y_cg_cw_m)},
+              {"x_cg_ccw_m", num(result.x_cg_ccw_m)},
+              {"y_cg_ccw_m", num(result.y_cg_ccw_m)}};
+  return c;
 }
 
 ReturnError simulateUmbmarkSquare(const DiffDriveParams& truth, const DiffDriveParams& odometry,

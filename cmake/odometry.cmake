@@ -3,7 +3,8 @@
 target_sources(autocal_core PRIVATE
   src/core/odometry/dead_reckoning.cpp
   src/core/odometry/umbmark.cpp
-  src/core/odometry/calibration_file.cpp)
+  src/core/odometry/calibration_file.cpp
+  src/core/odometry/uah.cpp)
 
 # `rosrun autocal umbmark ...`: needs no ROS at all, so it links only the core. Built into the
 # catkin devel space's lib/autocal, where rosrun finds it.
@@ -17,6 +18,8 @@ if(CATKIN_ENABLE_TESTING)
     SOURCES test/odometry/test_dead_reckoning.cpp LIBS autocal_core)
   autocal_core_gtest(test_odometry_umbmark
     SOURCES test/odometry/test_umbmark.cpp LIBS autocal_core)
+  autocal_core_gtest(test_odometry_uah
+    SOURCES test/odometry/test_uah.cpp LIBS autocal_core)
   autocal_core_gtest(test_odometry_calibration_file
     SOURCES test/odometry/test_calibration_file.cpp LIBS autocal_core)
   autocal_core_gtest(test_odometry_umbmark_command

@@ -54,13 +54,20 @@ Args parseArgs(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw ConfigError(flag + ": missing value (or unknown option)");
     const std::string value = argv[++i];
-    if (flag == "--errors") a.errors_file = value;
-    else if (flag == "--side") a.side_m = parseNumber(flag, value);
-    else if (flag == "--wheelbase") a.wheelbase_m = parseNumber(flag, value);
-    else if (flag == "--expressions") a.expressions = value;
-    else if (flag == "--out") a.out = value;
-    else if (flag == "--veh") a.veh = value;
-    else throw ConfigError("unknown option " + flag);
+    if (flag == "--errors")
+      a.errors_file = value;
+    else if (flag == "--side")
+      a.side_m = parseNumber(flag, value);
+    else if (flag == "--wheelbase")
+      a.wheelbase_m = parseNumber(flag, value);
+    else if (flag == "--expressions")
+      a.expressions = value;
+    else if (flag == "--out")
+      a.out = value;
+    else if (flag == "--veh")
+      a.veh = value;
+    else
+      throw ConfigError("unknown option " + flag);
   }
   if (a.help) return a;
   if (a.errors_file.empty()) throw ConfigError("--errors FILE.yaml is required");

@@ -76,7 +76,7 @@ TEST(DeadReckoning, TinyTurnsDoNotDivideByZero) {
 TEST(DeadReckoning, TicksAreDifferencedAcrossWrapAround) {
   const DiffDriveParams p = duckiebot();
   DeadReckoning dr(p);
-  dr.addTicks(2147483600, 2147483600);  // reference only
+  dr.addTicks(2147483600, 2147483600);    // reference only
   dr.addTicks(-2147483646, -2147483646);  // +50 ticks through the wrap
   EXPECT_NEAR(dr.pose().x_m, 50 * p.left_m_per_pulse, 1e-12);
 }

@@ -47,7 +47,7 @@ Scene irregularRoom() {
   Scene s;
   s.addPolygon({{-0.6, -0.5}, {1.3, -0.7}, {1.1, 0.9}, {0.2, 1.2}, {-0.8, 0.6}});
   s.addPolygon({{0.45, 0.35}, {0.7, 0.4}, {0.65, 0.6}, {0.42, 0.55}});  // a box
-  s.addPolygon({{-0.45, -0.2}, {-0.35, -0.25}, {-0.3, -0.1}});           // a bin
+  s.addPolygon({{-0.45, -0.2}, {-0.35, -0.25}, {-0.3, -0.1}});          // a bin
   return s;
 }
 
@@ -63,10 +63,10 @@ Scene squareRoom(Vec centre) {
 const Vec kPivotWorld{0.05, -0.1};  // where turnSignal's centre of rotation stands
 
 struct Robot {
-  double c_L = 0, c_R = 0;    // true distance per pulse [m]
-  double b = 0;               // true effective wheelbase [m]
-  double b_pivot = 0;         // pivot-to-moving-wheel distance with the pivot piece [m]
-  Vec sensor{0.08, 0.02};     // range sensor in the robot frame, looking forward
+  double c_L = 0, c_R = 0;  // true distance per pulse [m]
+  double b = 0;             // true effective wheelbase [m]
+  double b_pivot = 0;       // pivot-to-moving-wheel distance with the pivot piece [m]
+  Vec sensor{0.08, 0.02};   // range sensor in the robot frame, looking forward
 };
 
 Robot knownRobot() {
@@ -102,7 +102,7 @@ std::vector<RangeSample> turnSignal(const Robot& r, const Scene& scene, Turn tur
   Vec icr{0, 0};
   double pulses_per_rad = 0, sign = 1;
   switch (turn) {
-    case Turn::kPivotLeftStopped:  // right wheel moves forward, robot turns left about a
+    case Turn::kPivotLeftStopped:      // right wheel moves forward, robot turns left about a
       icr = {0, r.b_pivot - r.b / 2};  // point b_pivot from the right wheel
       pulses_per_rad = r.b_pivot / r.c_R;
       break;
@@ -129,7 +129,8 @@ std::vector<RangeSample> turnSignal(const Robot& r, const Scene& scene, Turn tur
     const double th = theta0 + sign * angle;
     const double c = std::cos(th), s = std::sin(th);
     // World position of the robot origin: the ICR stays fixed at pivot_world.
-    const Vec origin{pivot_world.x - (c * icr.x - s * icr.y), pivot_world.y - (s * icr.x + c * icr.y)};
+    const Vec origin{pivot_world.x - (c * icr.x - s * icr.y),
+                     pivot_world.y - (s * icr.x + c * icr.y)};
     const Vec sensor{origin.x + c * r.sensor.x - s * r.sensor.y,
                      origin.y + s * r.sensor.x + c * r.sensor.y};
     double range = scene.range(sensor, th) + noise(rng);
@@ -162,17 +163,16 @@ TEST(UahRoundDetection, FindsPulsesPerRoundWithinOnePulse) {
     for (unsigned seed = 1; seed <= 5; ++seed) {
       SignalOptions so;
       so.seed = seed;
-      const auto det = detectWholeRound(
-          turnSignal(r, scene, turns[i], so),
-          detectionOptions(i == 2 ? kSpinExpected : kPivotExpected));
+      const auto det = detectWholeRound(turnSignal(r, scene, turns[i], so),
+                                        detectionOptions(i == 2 ? kSpinExpected : kPivotExpected));
       worst = std::max(worst, std::abs(det.pulses_per_round - truths[i]));
       worst_single = std::max(worst_single, std::abs(det.single_round_pulses - truths[i]));
       EXPECT_NEAR(det.pulses_per_round, truths[i], 1.0) << "turn " << i << " seed " << seed;
       EXPECT_GE(det.rounds_used, 3);
     }
   }
-  std::printf("[ figures  ] pulses/round worst error: %.3f pulses (first peak alone %.3f)\n",
-              worst, worst_single);
+  std::printf("[ figures  ] pulses/round worst error: %.3f pulses (first peak alone %.3f)\n", worst,
+              worst_single);
 }
 
 TEST(UahRoundDetection, RefusesASymmetricScene) {
@@ -208,7 +208,8 @@ TEST(UahRoundDetection, RefusesAFeaturelessOrNoisyScene) {
   std::vector<RangeSample> flat;
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0, 0.0005);
-  for (int p = 0; p < 2000; ++p) flat.push_back({double(p), 1.0 + 0.3 * std::sin(p * 1e-4) + noise(rng)});
+  for (int p = 0; p < 2000; ++p)
+    flat.push_back({double(p), 1.0 + 0.3 * std::sin(p * 1e-4) + noise(rng)});
   EXPECT_THROW(detectWholeRound(flat, detectionOptions(420)), autocal::CalibrationError);
   // Pure noise: no structure repeats, the peak is weak.
   std::vector<RangeSample> random;
@@ -235,7 +236,7 @@ TEST(UahRoundDetection, ResamplingBridgesShortGapsOnly) {
   double first = 0;
   const auto x = resampleOnPulses(s, o, &first);
   ASSERT_EQ(x.size(), 13u);
-  EXPECT_NEAR(x[0], 1.1, 1e-12);  // two readings in one cell are averaged
+  EXPECT_NEAR(x[0], 1.1, 1e-12);   // two readings in one cell are averaged
   EXPECT_NEAR(x[1], 1.55, 1e-12);  // bridged
   EXPECT_TRUE(std::isnan(x[5]));   // gap of 8 pulses is left missing
   EXPECT_NEAR(x[10], 1.0, 1e-12);
@@ -283,7 +284,8 @@ TEST(UahStraightRun, RejectsRunsThatStrayAndAveragesTheRest) {
   const Robot r = knownRobot();
   std::vector<std::pair<double, double>> pulses;
   std::vector<StraightRun> runs;
-  for (unsigned i = 0; i < 4; ++i) runs.push_back(straightRun(r, 3.0, 0.01 + 0.005 * i, i, &pulses));
+  for (unsigned i = 0; i < 4; ++i)
+    runs.push_back(straightRun(r, 3.0, 0.01 + 0.005 * i, i, &pulses));
   runs.push_back(straightRun(r, 3.0, 0.15, 9, &pulses));  // 8.6° wobble
   const MmPerPulseEstimate e = estimateMmPerPulse(runs);
   EXPECT_EQ(e.accepted_runs.size(), 4u);
@@ -307,8 +309,7 @@ TEST(UahStraightRun, HeadingDeviationFromEncoderPulses) {
   p.right_m_per_pulse = r.c_R;
   p.wheelbase_m = r.b;
   // Heading from encoders is quantised: one pulse of one wheel is c/b ≈ 0.015 rad (0.85°).
-  EXPECT_NEAR(maxHeadingDeviationRad(pulses, p), run.max_heading_deviation_rad,
-              1.05 * r.c_R / r.b);
+  EXPECT_NEAR(maxHeadingDeviationRad(pulses, p), run.max_heading_deviation_rad, 1.05 * r.c_R / r.b);
 }
 
 TEST(UahWheelbase, SpinVersusPivot) {
@@ -329,21 +330,24 @@ TEST(Uah, WholeMethodOnSyntheticSignalsMeetsTheTolerances) {
   for (unsigned k = 0; k < 3; ++k) {
     SignalOptions so;
     so.seed = 100 + k;
-    right_left_stopped.push_back(
-        detectWholeRound(turnSignal(r, scene, Turn::kPivotLeftStopped, so),
-                         detectionOptions(kPivotExpected)).pulses_per_round);
+    right_left_stopped.push_back(detectWholeRound(turnSignal(r, scene, Turn::kPivotLeftStopped, so),
+                                                  detectionOptions(kPivotExpected))
+                                     .pulses_per_round);
     so.seed = 200 + k;
     left_right_stopped.push_back(
         detectWholeRound(turnSignal(r, scene, Turn::kPivotRightStopped, so),
-                         detectionOptions(kPivotExpected)).pulses_per_round);
+                         detectionOptions(kPivotExpected))
+            .pulses_per_round);
   }
   SignalOptions so;
   so.seed = 300;
-  const double spin = detectWholeRound(turnSignal(r, scene, Turn::kSpin, so),
-                                       detectionOptions(kSpinExpected)).pulses_per_round;
+  const double spin =
+      detectWholeRound(turnSignal(r, scene, Turn::kSpin, so), detectionOptions(kSpinExpected))
+          .pulses_per_round;
   std::vector<StraightRun> runs;
   std::vector<std::pair<double, double>> pulses;
-  for (unsigned i = 0; i < 3; ++i) runs.push_back(straightRun(r, 3.0, 0.01 * (i + 1), 40 + i, &pulses));
+  for (unsigned i = 0; i < 3; ++i)
+    runs.push_back(straightRun(r, 3.0, 0.01 * (i + 1), 40 + i, &pulses));
   runs.push_back(straightRun(r, 3.0, 0.2, 50, &pulses));
 
   const UahResult u = computeUah(kNominal, right_left_stopped, left_right_stopped, runs, spin);

@@ -47,30 +47,31 @@ class UmbmarkCommand : public ::testing::Test {
     return path;
   }
   fs::path dir_;
-  const std::string example_ = std::string(AUTOCAL_SOURCE_DIR) +
-                               "/config/umbmark_errors_example.yaml";
+  const std::string example_ =
+      std::string(AUTOCAL_SOURCE_DIR) + "/config/umbmark_errors_example.yaml";
 };
 
 TEST_F(UmbmarkCommand, PrintsYamlAndWritesTheOdometryFile) {
   const std::string out = (dir_ / "odometry" / "testbot.yaml").string();
-  const Result r = run("--errors " + example_ + " --side 1.0 --wheelbase 0.102 --out " + out +
-                       " --veh testbot");
+  const Result r =
+      run("--errors " + example_ + " --side 1.0 --wheelbase 0.102 --out " + out + " --veh testbot");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  for (const char* key : {"expressions: corrected", "Ed: ", "Eb: ", "alpha_rad: ", "beta_rad: ",
-                          "R_m: ", "E_max_syst_m: ", "c_L: ", "c_R: ",
-                          "wheel_separation_multiplier: ", "written: "}) {
+  for (const char* key :
+       {"expressions: corrected", "Ed: ", "Eb: ", "alpha_rad: ", "beta_rad: ", "R_m: ",
+        "E_max_syst_m: ", "c_L: ", "c_R: ", "wheel_separation_multiplier: ", "written: "}) {
     EXPECT_NE(r.output.find(key), std::string::npos) << key << "\n" << r.output;
   }
   const std::string written = autocal::readFile(out);
-  for (const char* key : {"method: umbmark", "vehicle: testbot", "Ed: ", "Eb: ", "b: ", "c_L: ",
-                          "c_R: ", "left_wheel_radius_multiplier: ", "date: ", "inputs:",
-                          "side_m: 1"}) {
+  for (const char* key :
+       {"method: umbmark", "vehicle: testbot", "Ed: ", "Eb: ", "b: ", "c_L: ", "c_R: ",
+        "left_wheel_radius_multiplier: ", "date: ", "inputs:", "side_m: 1"}) {
     EXPECT_NE(written.find(key), std::string::npos) << key << "\n" << written;
   }
 }
 
 TEST_F(UmbmarkCommand, OriginalExpressionsAreSelectable) {
-  const Result r = run("--errors " + example_ + " --side 1.0 --wheelbase 0.102 --expressions "
+  const Result r = run("--errors " + example_ +
+                       " --side 1.0 --wheelbase 0.102 --expressions "
                        "original");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("expressions: original"), std::string::npos) << r.output;
@@ -99,8 +100,7 @@ TEST_F(UmbmarkCommand, BadInputFailsClearlyAndKeepsTheGoodFile) {
       {"--errors " + file("beta0.yaml", "cw: [[-0.05, -0.05]]\nccw: [[-0.05, 0.05]]\n") +
            " --side 1 --wheelbase 0.1",
        "unbounded"},
-      {"--errors " + (dir_ / "missing.yaml").string() + " --side 1 --wheelbase 0.1",
-       "cannot open"},
+      {"--errors " + (dir_ / "missing.yaml").string() + " --side 1 --wheelbase 0.1", "cannot open"},
       {"--errors " + example_ + " --side 1 --wheelbase 0.1 --expressions new", "expressions"},
   };
   for (const Case& c : cases) {

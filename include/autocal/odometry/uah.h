@@ -49,12 +49,12 @@ struct RoundDetectionOptions {
 };
 
 struct RoundDetection {
-  double pulses_per_round = 0.0;  ///< the refined answer
+  double pulses_per_round = 0.0;     ///< the refined answer
   double single_round_pulses = 0.0;  ///< from the first peak alone (parabolic refinement)
   double peak_correlation = 0.0;
   double secondary_correlation = 0.0;  ///< highest correlation at a shorter lag
   double secondary_lag_pulses = 0.0;
-  int rounds_used = 0;       ///< peaks used in the refinement
+  int rounds_used = 0;  ///< peaks used in the refinement
   double rounds_covered = 0.0;
   double valid_fraction = 0.0;  ///< share of the pulse grid with a range value
 };
@@ -79,7 +79,7 @@ std::vector<double> resampleOnPulses(const std::vector<RangeSample>& samples,
 // Step 2 (§2.2): Ed from pivoting on each stopped wheel.
 
 struct EdEstimate {
-  double Ed = 1.0;               ///< D_R/D_L = N_L/N_R
+  double Ed = 1.0;                      ///< D_R/D_L = N_L/N_R
   double right_pulses_per_round = 0.0;  ///< mean N_R, left wheel stopped
   double left_pulses_per_round = 0.0;   ///< mean N_L, right wheel stopped
   double right_relative_spread = 0.0;   ///< (max − min)/mean over the experiments
@@ -99,8 +99,8 @@ EdEstimate estimateEd(const std::vector<double>& right_pulses_left_stopped,
 // Step 3 (§2.3): distance per pulse of the reference (right) wheel from straight runs.
 
 struct StraightRun {
-  double length_m = 0.0;        ///< measured distance from start to end point
-  double right_pulses = 0.0;    ///< pulses of the reference wheel over the run
+  double length_m = 0.0;                   ///< measured distance from start to end point
+  double right_pulses = 0.0;               ///< pulses of the reference wheel over the run
   double max_heading_deviation_rad = 0.0;  ///< largest |heading − initial heading| on the way
 };
 
@@ -132,8 +132,8 @@ double maxHeadingDeviationRad(const std::vector<std::pair<double, double>>& cumu
 // Step 4 (§2.3): wheelbase from pivot versus spin-in-place pulses.
 
 struct WheelbaseEstimate {
-  double wheelbase_m = 0.0;     ///< effective b, from the spin in place
-  double pivot_radius_m = 0.0;  ///< b', from the pivot on the stopped left wheel
+  double wheelbase_m = 0.0;          ///< effective b, from the spin in place
+  double pivot_radius_m = 0.0;       ///< b', from the pivot on the stopped left wheel
   double pivot_to_spin_ratio = 0.0;  ///< N_pivot,R / N_spin: 2 when b' = b and c_L = c_R
 };
 
@@ -142,8 +142,8 @@ struct WheelbaseEstimate {
 /// b = N_s·(c_L + c_R)/(2π); a pivot on the stopped left wheel gives b' = N_p,R·c_R/(2π), and
 /// b = b'·N_s·(c_L + c_R)/(N_p,R·c_R) relates the two (the pivot piece of §2.2 makes b' ≠ b).
 WheelbaseEstimate estimateWheelbase(double spin_pulses_per_round,
-                                    double pivot_right_pulses_per_round,
-                                    double left_m_per_pulse, double right_m_per_pulse);
+                                    double pivot_right_pulses_per_round, double left_m_per_pulse,
+                                    double right_m_per_pulse);
 
 // ---------------------------------------------------------------------------------------------
 // The whole method.

@@ -31,8 +31,8 @@ UmbmarkExpressions umbmarkExpressionsFromName(const std::string& name);
 std::string toString(UmbmarkExpressions expressions);
 
 struct UmbmarkOptions {
-  double side_m = 0.0;              ///< L, the side of the square
-  double wheelbase_m = 0.0;         ///< nominal wheelbase b used while driving the square
+  double side_m = 0.0;       ///< L, the side of the square
+  double wheelbase_m = 0.0;  ///< nominal wheelbase b used while driving the square
   UmbmarkExpressions expressions = UmbmarkExpressions::kCorrected;
   /// |β| below this leaves R unbounded: Ed is then 1 within precision and is refused.
   double min_abs_beta_rad = 1e-9;
@@ -75,8 +75,7 @@ ReturnError simulateUmbmarkSquare(const DiffDriveParams& truth, const DiffDriveP
 
 /// The result as the odometry file's record (method "umbmark"), with its inputs.
 OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,
-                                          const UmbmarkOptions& options,
-                                          const std::string& vehicle,
+                                          const UmbmarkOptions& options, const std::string& vehicle,
                                           const std::string& errors_file);
 
 /// Reads `cw: [[x, y], ...]` and `ccw: [[x, y], ...]` [m] from a YAML file; InputError or

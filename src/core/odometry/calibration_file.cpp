@@ -37,7 +37,8 @@ void checkOdometryCalibration(const OdometryCalibration& c) {
   positive(c.c_L, "c_L");
   positive(c.c_R, "c_R");
   if (c.Ed < 0.8 || c.Ed > 1.25) {
-    fail("Ed = " + std::to_string(c.Ed) + " is outside [0.8, 1.25] (wheels differing by more "
+    fail("Ed = " + std::to_string(c.Ed) +
+         " is outside [0.8, 1.25] (wheels differing by more "
          "than 20 % are a measurement or unit error)");
   }
   if (c.Eb < 0.5 || c.Eb > 2.0) fail("Eb = " + std::to_string(c.Eb) + " is outside [0.5, 2]");
@@ -70,8 +71,7 @@ std::string odometryCalibrationYaml(const OdometryCalibration& c, const std::str
       << m.left_wheel_radius_multiplier;
   out << YAML::Key << "right_wheel_radius_multiplier" << YAML::Value
       << m.right_wheel_radius_multiplier;
-  out << YAML::Key << "wheel_separation_multiplier" << YAML::Value
-      << m.wheel_separation_multiplier;
+  out << YAML::Key << "wheel_separation_multiplier" << YAML::Value << m.wheel_separation_multiplier;
   out << YAML::Key << "inputs" << YAML::Value << YAML::BeginMap;
   for (const auto& kv : c.inputs) {
     out << YAML::Key << kv.first << YAML::Value;

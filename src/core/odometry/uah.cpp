@@ -138,9 +138,9 @@ RoundDetection detectWholeRound(const std::vector<RangeSample>& samples,
   const int n = static_cast<int>(x.size());
 
   RoundDetection det;
-  det.valid_fraction =
-      static_cast<double>(std::count_if(x.begin(), x.end(), [](double v) { return !std::isnan(v); })) /
-      n;
+  det.valid_fraction = static_cast<double>(std::count_if(x.begin(), x.end(),
+                                                         [](double v) { return !std::isnan(v); })) /
+                       n;
   det.rounds_covered = n / nt;
   const int lo = static_cast<int>(std::floor(nt * (1.0 - options.window_fraction)));
   const int hi = static_cast<int>(std::ceil(nt * (1.0 + options.window_fraction)));
@@ -170,9 +170,10 @@ RoundDetection detectWholeRound(const std::vector<RangeSample>& samples,
     }
   }
   if (lobe_end < 0) {
-    throw CalibrationError("the range barely changes as the robot turns (featureless or "
-                           "circular scene): no whole round can be told apart; place obstacles "
-                           "at different distances around the robot");
+    throw CalibrationError(
+        "the range barely changes as the robot turns (featureless or "
+        "circular scene): no whole round can be told apart; place obstacles "
+        "at different distances around the robot");
   }
 
   const int k1 = argmaxIn(r, lo, hi);
@@ -190,10 +191,9 @@ RoundDetection detectWholeRound(const std::vector<RangeSample>& samples,
   }
   if (secondary >= 0 && r[secondary] >= options.max_secondary_ratio * r[k1]) {
     throw CalibrationError(
-        "ambiguous whole round: the range signal repeats after " + num(secondary, 4) +
-        " pulses (" + num(secondary / nt, 3) + " of a round, correlation " +
-        num(r[secondary], 3) + " against " + num(r[k1], 3) +
-        " at the round): the scene is symmetric or periodic; make it irregular");
+        "ambiguous whole round: the range signal repeats after " + num(secondary, 4) + " pulses (" +
+        num(secondary / nt, 3) + " of a round, correlation " + num(r[secondary], 3) + " against " +
+        num(r[k1], 3) + " at the round): the scene is symmetric or periodic; make it irregular");
   }
   if (k1 == lo || k1 == hi) {
     throw CalibrationError("the autocorrelation peak lies on the edge of the search window (" +
@@ -240,8 +240,8 @@ EdEstimate estimateEd(const std::vector<double>& right_pulses_left_stopped,
   EdEstimate e;
   stats(right_pulses_left_stopped, "the pivot on the stopped left wheel", &e.right_pulses_per_round,
         &e.right_relative_spread);
-  stats(left_pulses_right_stopped, "the pivot on the stopped right wheel",
-        &e.left_pulses_per_round, &e.left_relative_spread);
+  stats(left_pulses_right_stopped, "the pivot on the stopped right wheel", &e.left_pulses_per_round,
+        &e.left_relative_spread);
   if (e.right_relative_spread > max_relative_spread ||
       e.left_relative_spread > max_relative_spread) {
     throw CalibrationError("the pivot experiments disagree: spread " +
@@ -277,10 +277,10 @@ MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
     // close to the initial one; reject the run otherwise.
     if (!(std::abs(run.max_heading_deviation_rad) <= options.max_heading_deviation_rad)) {
       e.rejected_runs.push_back(static_cast<int>(i));
-      e.rejection_reasons.push_back(
-          "run " + std::to_string(i) + ": heading deviated " +
-          num(run.max_heading_deviation_rad * 180 / M_PI, 3) + " deg > " +
-          num(options.max_heading_deviation_rad * 180 / M_PI, 3) + " deg");
+      e.rejection_reasons.push_back("run " + std::to_string(i) + ": heading deviated " +
+                                    num(run.max_heading_deviation_rad * 180 / M_PI, 3) + " deg > " +
+                                    num(options.max_heading_deviation_rad * 180 / M_PI, 3) +
+                                    " deg");
       continue;
     }
     e.accepted_runs.push_back(static_cast<int>(i));
@@ -311,8 +311,8 @@ double maxHeadingDeviationRad(const std::vector<std::pair<double, double>>& cumu
 WheelbaseEstimate estimateWheelbase(double spin_pulses_per_round,
                                     double pivot_right_pulses_per_round, double left_m_per_pulse,
                                     double right_m_per_pulse) {
-  for (double v : {spin_pulses_per_round, pivot_right_pulses_per_round, left_m_per_pulse,
-                   right_m_per_pulse}) {
+  for (double v :
+       {spin_pulses_per_round, pivot_right_pulses_per_round, left_m_per_pulse, right_m_per_pulse}) {
     if (!std::isfinite(v) || v <= 0.0) {
       throw InputError("wheelbase: pulses per round and distances per pulse must be positive");
     }

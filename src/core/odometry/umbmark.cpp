@@ -134,7 +134,8 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
     // wheels run at R ± b/2 with the NOMINAL b, so Ed = D_R/D_L = (R + b/2)/(R − b/2).
     r.R_m = (L / 2.0) / std::sin(beta0 / 2.0);
     if (!(std::abs(r.R_m) > b / 2.0)) {
-      throw CalibrationError("R = " + num(r.R_m) + " m is not larger than b/2: the return "
+      throw CalibrationError("R = " + num(r.R_m) +
+                             " m is not larger than b/2: the return "
                              "errors are too large for this square and wheelbase");
     }
     r.Ed = (r.R_m + b / 2.0) / (r.R_m - b / 2.0);
@@ -166,8 +167,9 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
       const Eigen::Vector2d step = J.colPivHouseholderQr().solve(measured - f);
       p += step;
       if (!(p[0] > 0.0) || !(p[1] > 0.0) || !std::isfinite(p[0]) || !std::isfinite(p[1])) {
-        throw CalibrationError("the exact square model does not fit these return errors "
-                               "(Ed or Eb left the positive range): check the data");
+        throw CalibrationError(
+            "the exact square model does not fit these return errors "
+            "(Ed or Eb left the positive range): check the data");
       }
       if (step.norm() < 1e-13) break;
     }
@@ -195,8 +197,7 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
 }
 
 OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,
-                                          const UmbmarkOptions& options,
-                                          const std::string& vehicle,
+                                          const UmbmarkOptions& options, const std::string& vehicle,
                                           const std::string& errors_file) {
   OdometryCalibration c;
   c.method = "umbmark";
@@ -296,7 +297,8 @@ void loadUmbmarkErrors(const std::string& path, std::vector<ReturnError>* cw,
       out->push_back(ReturnError{v[0], v[1]});
     }
     if (out->empty()) {
-      throw InputError(at(list) + ": " + key + ": the list is empty; UMBmark needs at least "
+      throw InputError(at(list) + ": " + key +
+                       ": the list is empty; UMBmark needs at least "
                        "one run in each direction");
     }
   };

@@ -63,6 +63,8 @@ TEST(Umbmark, SignsFollowBorensteinsConventions) {
     EXPECT_GT(r.R_m, 0.0);
     EXPECT_NEAR(r.c_R / r.c_L, r.Ed, 1e-12);
     EXPECT_NEAR(r.wheelbase_actual_m, r.Eb * 0.102, 1e-12);
+    EXPECT_EQ(r.multipliers().wheel_separation_multiplier, r.Eb);
+    EXPECT_EQ(r.multipliers().left_wheel_radius_multiplier, r.c_L);
   }
 }
 

@@ -157,6 +157,8 @@ struct UahResult {
 
   /// The odometry file's record (method "uah"), with the multipliers against `nominal`.
   OdometryCalibration toOdometryCalibration(const std::string& vehicle) const;
+  /// diff_drive_controller's multipliers against `nominal`.
+  DiffDriveMultipliers multipliers() const { return toOdometryCalibration("").multipliers(); }
 };
 
 /// Steps 2–4 in the paper's order: Ed, then c_R (reference wheel), c_L = c_R/Ed, then b.

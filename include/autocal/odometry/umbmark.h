@@ -56,6 +56,9 @@ struct UmbmarkResult {
   double wheelbase_actual_m = 0.0;
   double c_L = 1.0;  ///< correction factor of the left wheel's distance per pulse
   double c_R = 1.0;  ///< correction factor of the right wheel's distance per pulse
+
+  /// diff_drive_controller's multipliers: c_L, c_R and Eb.
+  DiffDriveMultipliers multipliers() const { return {c_L, c_R, Eb}; }
 };
 
 /// Computes UMBmark from the return errors. Throws InputError for an empty or one-sided list or

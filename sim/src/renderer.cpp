@@ -19,8 +19,9 @@ namespace {
 constexpr int kAzimuthBins = 1024;
 constexpr int kBinPadding = 2;
 constexpr uint16_t kAllBins = kAzimuthBins;  // rays too close to vertical to have an azimuth
-// Flag of a surface id: the surface carries sharp marks (board squares, floor tags and lines)
-// that may be smaller than a block of pixels, so it is never interpolated.
+// Flag of a surface id: the surface carries sharp marks (floor tags and lines) that may be
+// smaller than a block of pixels, so it is never interpolated. (Boards need no flag: each square
+// and margin strip has an id of its own, see boardColor.)
 constexpr int kMarked = 1 << 30;
 
 using detail::Rgb;
@@ -139,9 +140,14 @@ class Scene {
  private:
   /// Floor colour at (x, y); *marked: the point lies in a grid cell that holds marks.
   Rgb floorColor(double x, double y, bool* marked) const;
-  Rgb boardColor(const VerticalQuad& q, double s, double z) const;
+  /// Colour of a board at (s, z); *cell numbers the convex region it lies in (a square, or a strip
+  /// or corner of the white margin), so that equal cells at a block's corners mean no edge inside.
+  Rgb boardColor(const VerticalQuad& q, double s, double z, int* cell) const;
   /// Wall colour at (s, z); *part tells the posters (1 + index) from the bare wall (0).
   Rgb wallColor(const VerticalQuad& q, double s, double z, int* part) const;
+  /// Colour and id of a hit: hit -1 nothing, -2 floor, -3 - k top k, >= 0 quad (at s along it).
+  inline void shadeHit(int hit, double t, double hit_s, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                       Rgb* color, int* id) const;
 
   WorldConfig world_;
   Rgb floor_color_;
@@ -411,12 +417,16 @@ Rgb Scene::floorColor(double x, double y, bool* marked) const {
   return floor_color_;
 }
 
-Rgb Scene::boardColor(const VerticalQuad& q, double s, double z) const {
+Rgb Scene::boardColor(const VerticalQuad& q, double s, double z, int* cell) const {
   const ChessboardConfig& b = world_.chessboards[q.index];
   const double u = (s - b.margin_m) / b.square_m;
   const double v = (q.z1 - b.margin_m - z) / b.square_m;
-  if (u < 0 || v < 0 || u >= b.cols + 1 || v >= b.rows + 1) return kPaperWhite;
-  const int a = static_cast<int>(u), c = static_cast<int>(v);
+  // Squares are cells 0..cols by 0..rows (cols + 1 by rows + 1 squares); the margin is split into
+  // the convex strips beside each row and column and the four corners (cell -1 or cols + 1).
+  const int a = std::clamp(static_cast<int>(std::floor(u)), -1, b.cols + 1);
+  const int c = std::clamp(static_cast<int>(std::floor(v)), -1, b.rows + 1);
+  *cell = 1 + (a + 1) + (c + 1) * (b.cols + 3);
+  if (a < 0 || c < 0 || a > b.cols || c > b.rows) return kPaperWhite;
   return ((a + c) % 2 == 0) ? kPrintBlack : kPaperWhite;
 }
 
@@ -474,6 +484,11 @@ inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uin
     best = t;
     hit = -3 - static_cast<int>(k);
   }
+  shadeHit(hit, best, hit_s, o, d, color, id);
+}
+
+inline void Scene::shadeHit(int hit, double best, double hit_s, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                            Rgb* color, int* id) const {
   if (hit == -1) {
     *color = kSky;
     *id = 0;
@@ -492,10 +507,14 @@ inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uin
     const double z = o.z() + best * d.z();
     *id = q.id;
     switch (surface) {
-      case Surface::kBoard:
-        *color = boardColor(q, hit_s, z);
-        *id |= kMarked;
+      case Surface::kBoard: {
+        // Each square and margin region is a surface of its own: a block whose corners share one
+        // cannot hold an edge (the regions are convex), so it may be blended like plain surfaces.
+        int cell = 0;
+        *color = boardColor(q, hit_s, z, &cell);
+        *id += cell << 16;
         break;
+      }
       case Surface::kBoardBack:
         *color = kBoardBack;
         break;

@@ -175,6 +175,17 @@ RobotConfig readRobot(YamlMap& m) {
   return r;
 }
 
+/// The end points x0_m, y0_m, x1_m, y1_m of a lane line or a wall, at least min_length_m apart.
+template <class Segment>
+void readSegment(YamlMap& m, double min_length_m, const char* too_short, Segment* c) {
+  c->x0_m = m.required<double>("x0_m");
+  c->y0_m = m.required<double>("y0_m");
+  c->x1_m = m.required<double>("x1_m");
+  c->y1_m = m.required<double>("y1_m");
+  if (std::hypot(c->x1_m - c->x0_m, c->y1_m - c->y0_m) < min_length_m) m.fail("x1_m", too_short);
+}
+
+
 WorldConfig readWorld(YamlMap& m) {
   WorldConfig w;
   if (m.has("robot_start")) {
@@ -211,11 +222,7 @@ WorldConfig readWorld(YamlMap& m) {
   }
   for (YamlMap& l : m.optionalMapList("lane_lines")) {
     LaneLineConfig c;
-    c.x0_m = l.required<double>("x0_m");
-    c.y0_m = l.required<double>("y0_m");
-    c.x1_m = l.required<double>("x1_m");
-    c.y1_m = l.required<double>("y1_m");
-    if (std::hypot(c.x1_m - c.x0_m, c.y1_m - c.y0_m) < 1e-6) l.fail("x1_m", "the line has no length");
+    readSegment(l, 1e-6, "the line has no length", &c);
     c.width_m = positive(l, "width_m");
     c.color = l.optional<std::string>("color", c.color);
     if (c.color != "white" && c.color != "yellow") l.fail("color", "must be white or yellow");
@@ -229,11 +236,7 @@ WorldConfig readWorld(YamlMap& m) {
   }
   for (YamlMap& wl : m.optionalMapList("walls")) {
     WallConfig c;
-    c.x0_m = wl.required<double>("x0_m");
-    c.y0_m = wl.required<double>("y0_m");
-    c.x1_m = wl.required<double>("x1_m");
-    c.y1_m = wl.required<double>("y1_m");
-    if (std::hypot(c.x1_m - c.x0_m, c.y1_m - c.y0_m) < 1e-3) wl.fail("x1_m", "the wall has no length");
+    readSegment(wl, 1e-3, "the wall has no length", &c);
     c.height_m = positive(wl, "height_m");
     c.thickness_m = positiveOr(wl, "thickness_m", c.thickness_m);
     c.texture_seed = static_cast<uint32_t>(wl.optional<int>("texture_seed", 1));

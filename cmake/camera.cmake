@@ -15,3 +15,7 @@ autocal_ros_target(calibrate_camera)
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_camera_real SOURCES test/camera/test_camera_real.cpp LIBS autocal_core)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_camera_synthetic SOURCES test/camera/test_camera_synthetic.cpp LIBS autocal_core)
+endif()

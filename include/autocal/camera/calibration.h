@@ -35,13 +35,16 @@ struct CalibrationOptions {
   /// Held-out folds for that choice (view i is held out in fold i mod folds); leave-one-out
   /// when there are no more views than this.
   int max_selection_folds = 6;
-  /// A view whose RMS exceeds max(outlier_view_factor · median view RMS, outlier_view_min_px) is
-  /// dropped; a corner whose residual exceeds max(outlier_corner_factor · RMS,
-  /// outlier_corner_min_px) is dropped; then the model is refitted. Rounds until none is dropped.
+  /// A corner whose residual exceeds max(outlier_corner_factor · median view RMS,
+  /// outlier_corner_min_px) is dropped; a view is dropped when more than
+  /// max_outlier_corner_fraction of its corners are, or when the RMS of its other corners exceeds
+  /// max(outlier_view_factor · median view RMS, outlier_view_min_px); then the model is refitted.
+  /// Rounds until nothing is dropped.
   double outlier_view_factor = 3.0;
   double outlier_view_min_px = 0.5;
   double outlier_corner_factor = 4.0;
   double outlier_corner_min_px = 1.0;
+  double max_outlier_corner_fraction = 0.2;
   int max_outlier_rounds = 3;
   /// Views kept after dropping outliers must stay at least this fraction of the input.
   double min_kept_fraction = 0.5;

@@ -106,7 +106,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
     flags |= isFisheye(model) ? static_cast<int>(cv::fisheye::CALIB_USE_INTRINSIC_GUESS)
                               : static_cast<int>(cv::CALIB_USE_INTRINSIC_GUESS);
   }
-  const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9);
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-7);
   try {
     if (isFisheye(model)) {
       if (d.empty()) d = cv::Mat::zeros(4, 1, CV_64F);
@@ -291,36 +291,61 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   for (int round = 0; round < options.max_outlier_rounds; ++round) {
     gather(obj, img);
     const Fit f = fit(obj, img, image_size, options.model, judge_set.flags);
-    std::vector<double> view_rms(active.size());
+    // Residuals of every corner; a corner is an outlier beyond a limit set by the median view
+    // (robust to the outliers themselves). A view is an outlier when too many of its corners
+    // are, or when its inlier corners still fit badly (a wrong match, a moved board).
     std::vector<Points2> projected(active.size());
+    std::vector<std::vector<double>> residual(active.size());
+    std::vector<double> all_rms(active.size());
     for (size_t a = 0; a < active.size(); ++a) {
       projected[a] = project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics);
-      view_rms[a] = rms(projected[a], img[a]);
+      all_rms[a] = rms(projected[a], img[a]);
+      for (size_t j = 0; j < img[a].size(); ++j) residual[a].push_back(cv::norm(projected[a][j] - img[a][j]));
     }
-    std::vector<double> sorted = view_rms;
+    std::vector<double> sorted = all_rms;
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const double median = sorted[sorted.size() / 2];
     const double view_limit = std::max(options.outlier_view_factor * median, options.outlier_view_min_px);
-    const double corner_limit = std::max(options.outlier_corner_factor * f.rms_px, options.outlier_corner_min_px);
+    const double corner_limit = std::max(options.outlier_corner_factor * median, options.outlier_corner_min_px);
+    std::vector<double> inlier_rms(active.size());
+    std::vector<double> outlier_fraction(active.size());
+    for (size_t a = 0; a < active.size(); ++a) {
+      double s = 0;
+      int inliers = 0;
+      for (double r : residual[a]) {
+        if (r <= corner_limit) {
+          s += r * r;
+          ++inliers;
+        }
+      }
+      inlier_rms[a] = inliers ? std::sqrt(s / inliers) : std::numeric_limits<double>::infinity();
+      outlier_fraction[a] = 1.0 - static_cast<double>(inliers) / static_cast<double>(residual[a].size());
+    }
+    auto badness = [&](size_t a) {
+      return outlier_fraction[a] > options.max_outlier_corner_fraction ? 1e9 + outlier_fraction[a] : inlier_rms[a];
+    };
     // Worst views first, never below the minimum number of views.
     std::vector<size_t> order(active.size());
     std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return view_rms[a] > view_rms[b]; });
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return badness(a) > badness(b); });
     std::vector<char> drop(active.size(), 0);
     size_t remaining = active.size();
     bool changed = false;
     for (size_t a : order) {
-      if (view_rms[a] <= view_limit) break;
+      const bool too_many = outlier_fraction[a] > options.max_outlier_corner_fraction;
+      if (!too_many && inlier_rms[a] <= view_limit) break;
       if (remaining <= min_active) {
-        throw CalibrationError(fmt("too many outlier views: view RMS up to %.2f px against a median of %.2f px", view_rms[order[0]], median) +
+        throw CalibrationError(fmt("too many outlier views: view RMS up to %.2f px against a median of %.2f px",
+                                   all_rms[order[0]], median) +
                                "; " + std::to_string(active.size()) + " views left, at least " +
                                std::to_string(min_active) + " needed");
       }
       drop[a] = 1;
       --remaining;
       result.dropped_views.push_back(
-          {active[a], fmt("outlier view: RMS %.2f px > %.2f px (%.1f x median)", view_rms[a], view_limit,
-                          options.outlier_view_factor)});
+          {active[a], too_many ? fmt("outlier view: %.0f %% of its corners off by more than %.2f px", 100 * outlier_fraction[a], corner_limit)
+                               : fmt("outlier view: RMS %.2f px > %.2f px (%.1f x median)", inlier_rms[a], view_limit,
+                                     options.outlier_view_factor)});
       changed = true;
     }
     for (size_t a = 0; a < active.size(); ++a) {
@@ -330,8 +355,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       size_t j = 0;
       for (size_t c = 0; c < n_corners; ++c) {
         if (!keep[static_cast<size_t>(v)][c]) continue;
-        const cv::Point2f d = projected[a][j] - img[a][j];
-        if (std::sqrt(d.x * d.x + d.y * d.y) > corner_limit) {
+        if (residual[a][j] > corner_limit) {
           keep[static_cast<size_t>(v)][c] = 0;
           ++result.dropped_corners;
           changed = true;

@@ -52,6 +52,8 @@ void CameraCalibrationConfig::validate() const {
   check(calibration.max_selection_folds >= 2, "calibration.max_selection_folds", "must be >= 2");
   check(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor", "must be > 1");
   check(calibration.outlier_corner_factor > 1, "calibration.outlier_corner_factor", "must be > 1");
+  check(calibration.max_outlier_corner_fraction > 0 && calibration.max_outlier_corner_fraction < 1,
+        "calibration.max_outlier_corner_fraction", "must be in (0, 1)");
   check(calibration.max_outlier_rounds >= 1, "calibration.max_outlier_rounds", "must be >= 1");
   check(calibration.min_kept_fraction > 0 && calibration.min_kept_fraction <= 1,
         "calibration.min_kept_fraction", "must be in (0, 1]");
@@ -103,6 +105,7 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.calibration.outlier_view_min_px = k.required<double>("outlier_view_min_px");
     c.calibration.outlier_corner_factor = k.required<double>("outlier_corner_factor");
     c.calibration.outlier_corner_min_px = k.required<double>("outlier_corner_min_px");
+    c.calibration.max_outlier_corner_fraction = k.required<double>("max_outlier_corner_fraction");
     c.calibration.max_outlier_rounds = k.required<int>("max_outlier_rounds");
     c.calibration.min_kept_fraction = k.required<double>("min_kept_fraction");
     k.finish();

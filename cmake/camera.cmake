@@ -19,3 +19,11 @@ endif()
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_camera_synthetic SOURCES test/camera/test_camera_synthetic.cpp LIBS autocal_core)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # The command end to end (it writes bags, so it is a ROS-side test).
+  autocal_core_gtest(test_calibrate_camera_tool SOURCES test/camera/test_calibrate_camera_tool.cpp LIBS autocal_core)
+  autocal_ros_target(test_calibrate_camera_tool)
+  target_compile_definitions(test_calibrate_camera_tool PRIVATE AUTOCAL_TOOL="$<TARGET_FILE:calibrate_camera>")
+  add_dependencies(test_calibrate_camera_tool calibrate_camera)
+endif()

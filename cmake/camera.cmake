@@ -27,3 +27,9 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(test_calibrate_camera_tool PRIVATE AUTOCAL_TOOL="$<TARGET_FILE:calibrate_camera>")
   add_dependencies(test_calibrate_camera_tool calibrate_camera)
 endif()
+
+# Detection speed benchmark (scripts/bench/camera.sh); ROS-free.
+add_executable(bench_camera_detection test/camera/bench_camera_detection.cpp)
+target_link_libraries(bench_camera_detection autocal_core)
+target_compile_options(bench_camera_detection PRIVATE ${AUTOCAL_WARNINGS})
+set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

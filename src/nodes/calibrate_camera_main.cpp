@@ -93,8 +93,10 @@ Args parseArgs(int argc, char** argv) {
 }
 
 std::string defaultConfigPath() {
-  const std::string pkg = ros::package::getPath("autocal");
-  return (pkg.empty() ? std::string(AUTOCAL_SOURCE_DIR) : pkg) + "/config/camera_calibration.yaml";
+  // The source tree this binary was built from, else the package as ROS finds it.
+  const std::string built = std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml";
+  if (fs::exists(built)) return built;
+  return ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
 }
 
 // Feeds frames (image, name) to `sink`; throws InputError for unusable input.
@@ -271,8 +273,10 @@ int run(const Args& args) {
   }
   std::vector<std::vector<cv::Point2f>> corners;
   for (const auto& v : views) corners.push_back(v.corners);
+  const auto t1 = std::chrono::steady_clock::now();
   const CalibrationResult result = calibrate(corners, collector.imageSize(), config.calibration);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto t2 = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(t2 - t0).count();
 
   const Intrinsics& in = result.intrinsics;
   std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.model).c_str(), result.fitted_terms.c_str());
@@ -295,7 +299,9 @@ int run(const Args& args) {
   for (const auto& d : result.dropped_views) {
     std::printf("  refused %s: %s\n", views[static_cast<size_t>(d.index)].source.c_str(), d.reason.c_str());
   }
-  std::printf("images to intrinsics: %.2f s\n", seconds);
+  std::printf("selection: %s\n", result.selection_reason.c_str());
+  std::printf("images to intrinsics: %.3f s (reading and detection %.3f s, calibration %.3f s)\n", seconds,
+              std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
 
   if (args.holdout) {
     const HoldoutEvaluation ours = leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kAutocal);

@@ -100,7 +100,23 @@ TEST(CameraSynthetic, UnconstrainedK3IsHeldFixed) {
   const CalibrationResult r = calibrate(views, kImage, options());
   EXPECT_NE(r.fitted_terms.find("k3 fixed"), std::string::npos) << r.fitted_terms;
   EXPECT_EQ(r.intrinsics.distortion[4], 0.0);
-  EXPECT_GT(r.selection_holdout_rms_px, 0.0);
+  EXPECT_NE(r.selection_reason.find("k3 = "), std::string::npos) << r.selection_reason;
+  // The same choice by held-out error.
+  CalibrationOptions o = options();
+  o.selection = CalibrationOptions::Selection::kHoldout;
+  const CalibrationResult h = calibrate(views, kImage, o);
+  EXPECT_NE(h.fitted_terms.find("k3 fixed"), std::string::npos) << h.fitted_terms;
+  EXPECT_GT(h.selection_holdout_rms_px, 0.0);
+}
+
+TEST(CameraSynthetic, ConstrainedK3IsFitted) {
+  // Strong k3 and many precise views: k3 stands well out of its uncertainty and is fitted.
+  Truth t;
+  t.d = {-0.3, 0.1, 0.0, 0.0, 0.3};
+  const auto views = syntheticViews(t, 25, 0.05, 11);
+  const CalibrationResult r = calibrate(views, kImage, options());
+  EXPECT_EQ(r.fitted_terms, "k1 k2 p1 p2 k3") << r.selection_reason;
+  EXPECT_NEAR(r.intrinsics.distortion[4], 0.3, 0.1);
 }
 
 TEST(CameraSynthetic, RationalAndFisheyeOptions) {

@@ -28,12 +28,20 @@ struct CalibrationOptions {
   int min_views = 6;
   /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.
   double min_param_spread = 0.05;
-  /// Choose the distortion terms by held-out error: the simplest set whose held-out RMS is within
-  /// this relative margin of the best is used (false: fit all terms of the model).
+  /// Hold fixed (at 0) the distortion terms the views cannot constrain. Term sets are nested,
+  /// simplest first (plumb_bob: k1 k2 | + p1 p2 | + k3).
   bool select_distortion_terms = true;
+  /// kSignificance: start from all terms and drop the last group while none of its terms is
+  /// significant (|value| < min_term_significance · its standard deviation); 2–3 fits, fast.
+  /// kHoldout: the simplest set whose cross-validated held-out RMS is within selection_margin of
+  /// the best; slower (a fit per fold and set). Equidistant always uses kHoldout (OpenCV reports
+  /// no standard deviations for it).
+  enum class Selection { kSignificance, kHoldout };
+  Selection selection = Selection::kSignificance;
+  double min_term_significance = 3.0;
   double selection_margin = 0.02;
-  /// Held-out folds for that choice (view i is held out in fold i mod folds); leave-one-out
-  /// when there are no more views than this.
+  /// Held-out folds for kHoldout (view i is held out in fold i mod folds); leave-one-out when
+  /// there are no more views than this.
   int max_selection_folds = 6;
   /// A corner whose residual exceeds max(outlier_corner_factor · median view RMS,
   /// outlier_corner_min_px) is dropped; a view is dropped when more than
@@ -79,8 +87,10 @@ struct CalibrationResult {
   std::vector<double> std_devs;
   /// Which distortion terms were fitted, e.g. "k1 k2 p1 p2 (k3 fixed at 0)".
   std::string fitted_terms;
-  /// Held-out RMS of the chosen term set during selection [px] (0 when not selected).
+  /// Held-out RMS of the chosen term set during kHoldout selection [px] (0 otherwise).
   double selection_holdout_rms_px = 0;
+  /// Why the terms were chosen, e.g. "k3 = 0.16 +- 0.13 (t 1.3 < 3): fixed".
+  std::string selection_reason;
 };
 
 /// Calibrates from views (corners in pattern order). Throws InputError for unusable corners (NaN,

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numeric>
+#include <optional>
 
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
@@ -55,27 +56,28 @@ bool isFisheye(DistortionModel m) { return m == DistortionModel::kEquidistant; }
 struct TermSet {
   std::string name;
   int flags;
+  std::vector<int> added;  // distortion indices this set fits beyond the previous one
 };
 
 std::vector<TermSet> termSets(DistortionModel model) {
   switch (model) {
     case DistortionModel::kPlumbBob:
-      return {{"k1 k2 (p1 p2 k3 fixed at 0)", cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3},
-              {"k1 k2 p1 p2 (k3 fixed at 0)", cv::CALIB_FIX_K3},
-              {"k1 k2 p1 p2 k3", 0}};
+      return {{"k1 k2 (p1 p2 k3 fixed at 0)", cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3, {0, 1}},
+              {"k1 k2 p1 p2 (k3 fixed at 0)", cv::CALIB_FIX_K3, {2, 3}},
+              {"k1 k2 p1 p2 k3", 0, {4}}};
     case DistortionModel::kRationalPolynomial: {
       const int r = cv::CALIB_RATIONAL_MODEL;
       return {{"k1 k2 p1 p2 (k3..k6 fixed at 0)",
-               r | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6},
+               r | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6, {0, 1, 2, 3}},
               {"k1 k2 p1 p2 k3 (k4..k6 fixed at 0)",
-               r | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6},
-              {"k1 k2 p1 p2 k3 k4 k5 k6", r}};
+               r | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6, {4}},
+              {"k1 k2 p1 p2 k3 k4 k5 k6", r, {5, 6, 7}}};
     }
     case DistortionModel::kEquidistant: {
       const int f = cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW;
-      return {{"k1 k2 (k3 k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K3 | cv::fisheye::CALIB_FIX_K4},
-              {"k1 k2 k3 (k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K4},
-              {"k1 k2 k3 k4", f}};
+      return {{"k1 k2 (k3 k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K3 | cv::fisheye::CALIB_FIX_K4, {0, 1}},
+              {"k1 k2 k3 (k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K4, {2}},
+              {"k1 k2 k3 k4", f, {3}}};
     }
   }
   return {};
@@ -373,15 +375,47 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   gather(obj, img);
 
   TermSet chosen = sets.back();
-  if (options.select_distortion_terms) {
-    // Prefer the model that generalises (issue 3): the simplest term set whose held-out error is
-    // within the margin of the best one. A term the views cannot constrain fits noise: it lowers
-    // the training RMS and raises the error on views it has not seen.
+  static const char* kTermNames[3][8] = {{"k1", "k2", "p1", "p2", "k3", "", "", ""},
+                                         {"k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"},
+                                         {"k1", "k2", "k3", "k4", "", "", "", ""}};
+  const auto term_name = [&](int i) { return std::string(kTermNames[static_cast<int>(options.model)][i]); };
+  std::optional<Fit> final_fit;
+  if (options.select_distortion_terms && options.selection == CalibrationOptions::Selection::kSignificance &&
+      !isFisheye(options.model)) {
+    // Drop the most complex group of terms while none of its terms stands out of its own
+    // uncertainty: such a term fits the noise of these views, not the lens (issue 3: ROS's fits
+    // swing by 15 px in fx between folds of 13 photos).
+    size_t level = sets.size() - 1;
+    Fit f = fit(obj, img, image_size, options.model, sets[level].flags);
+    while (level > 0) {
+      bool significant = false;
+      std::string why;
+      for (int i : sets[level].added) {
+        const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
+        const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
+        const double t = sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
+        significant = significant || t >= options.min_term_significance;
+        why += (why.empty() ? "" : ", ") + term_name(i) + fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+      }
+      result.selection_reason += (result.selection_reason.empty() ? "" : "; ") + why +
+                                 (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
+      if (significant) break;
+      --level;
+      f = fit(obj, img, image_size, options.model, sets[level].flags);
+    }
+    chosen = sets[level];
+    final_fit = f;
+  } else if (options.select_distortion_terms) {
+    // The simplest term set whose held-out error is within the margin of the best one. A term
+    // the views cannot constrain lowers the training RMS and raises the error on unseen views.
     std::vector<double> scores;
     for (const TermSet& s : sets) {
       scores.push_back(crossValidate(obj, img, image_size, options.model, s.flags, options.max_selection_folds));
     }
     const double best = *std::min_element(scores.begin(), scores.end());
+    for (size_t i = 0; i < sets.size(); ++i) {
+      result.selection_reason += (i ? "; " : "") + sets[i].name + fmt(": held-out %.4f px", scores[i]);
+    }
     for (size_t i = 0; i < sets.size(); ++i) {
       if (scores[i] <= best * (1 + options.selection_margin)) {
         chosen = sets[i];
@@ -390,7 +424,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       }
     }
   }
-  const Fit f = fit(obj, img, image_size, options.model, chosen.flags);
+  const Fit f = final_fit ? *final_fit : fit(obj, img, image_size, options.model, chosen.flags);
   result.intrinsics = f.intrinsics;
   result.rms_px = f.rms_px;
   result.std_devs = f.std_devs;

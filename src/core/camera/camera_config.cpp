@@ -48,6 +48,7 @@ void CameraCalibrationConfig::validate() const {
   check(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio", "must be > 0");
   check(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
   check(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
+  check(calibration.min_term_significance > 0, "calibration.min_term_significance", "must be > 0");
   check(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
   check(calibration.max_selection_folds >= 2, "calibration.max_selection_folds", "must be >= 2");
   check(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor", "must be > 1");
@@ -99,6 +100,15 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.calibration.min_views = k.required<int>("min_views");
     c.calibration.min_param_spread = k.required<double>("min_param_spread");
     c.calibration.select_distortion_terms = k.required<bool>("select_distortion_terms");
+    const std::string selection = k.required<std::string>("selection");
+    if (selection == "significance") {
+      c.calibration.selection = CalibrationOptions::Selection::kSignificance;
+    } else if (selection == "holdout") {
+      c.calibration.selection = CalibrationOptions::Selection::kHoldout;
+    } else {
+      k.fail("selection", "expected significance or holdout, got '" + selection + "'");
+    }
+    c.calibration.min_term_significance = k.required<double>("min_term_significance");
     c.calibration.selection_margin = k.required<double>("selection_margin");
     c.calibration.max_selection_folds = k.required<int>("max_selection_folds");
     c.calibration.outlier_view_factor = k.required<double>("outlier_view_factor");

@@ -264,7 +264,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   const std::vector<TermSet> sets = termSets(options.model);
   // Outliers are judged with the middle term set: flexible enough for real lenses, too stiff to
   // absorb a bad view.
-  const TermSet& judge_set = sets[1];
+  const TermSet& judge_set = sets[1];  // judge_level below
 
   std::vector<int> active(views.size());
   std::iota(active.begin(), active.end(), 0);
@@ -290,9 +290,14 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   const size_t min_active = std::max<size_t>(
       static_cast<size_t>(options.min_views),
       static_cast<size_t>(std::ceil(options.min_kept_fraction * static_cast<double>(views.size()))));
+  // The judging fit of the last round, when that round dropped nothing: it is then the fit of
+  // the judging term set on the final data, and the term selection below reuses it.
+  std::optional<Fit> judge_fit;
+  const size_t judge_level = 1;
   for (int round = 0; round < options.max_outlier_rounds; ++round) {
     gather(obj, img);
     const Fit f = fit(obj, img, image_size, options.model, judge_set.flags);
+    judge_fit.reset();
     // Residuals of every corner; a corner is an outlier beyond a limit set by the median view
     // (robust to the outliers themselves). A view is an outlier when too many of its corners
     // are, or when its inlier corners still fit badly (a wrong match, a moved board).
@@ -370,7 +375,10 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       if (!drop[a]) next.push_back(active[a]);
     }
     active = next;
-    if (!changed) break;
+    if (!changed) {
+      judge_fit = f;
+      break;
+    }
   }
   gather(obj, img);
 
@@ -401,7 +409,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
                                  (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
       if (significant) break;
       --level;
-      f = fit(obj, img, image_size, options.model, sets[level].flags);
+      f = (level == judge_level && judge_fit) ? *judge_fit : fit(obj, img, image_size, options.model, sets[level].flags);
     }
     chosen = sets[level];
     final_fit = f;

@@ -15,15 +15,14 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
-
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <iostream>
 #include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <sstream>
 
@@ -41,7 +40,8 @@ namespace {
 
 const char* kUsage =
     "usage: calibrate_camera (--images 'GLOB' | --bag FILE --topic TOPIC) --out FILE.yaml\n"
-    "                        [--board 9x6] [--square 0.025] [--model plumb_bob|rational_polynomial|equidistant]\n"
+    "                        [--board 9x6] [--square 0.025] [--model "
+    "plumb_bob|rational_polynomial|equidistant]\n"
     "                        [--config FILE] [--camera-name NAME] [--min-novelty X] [--holdout]\n";
 
 struct UsageError : Error {
@@ -69,14 +69,22 @@ Args parseArgs(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw UsageError(k + " needs a value");
     const std::string v = argv[++i];
-    if (k == "--images") a.images = v;
-    else if (k == "--bag") a.bag = v;
-    else if (k == "--topic") a.topic = v;
-    else if (k == "--out") a.out = v;
-    else if (k == "--config") a.config = v;
-    else if (k == "--model") a.model = v;
-    else if (k == "--camera-name") a.camera_name = v;
-    else if (k == "--board") a.board = v;
+    if (k == "--images")
+      a.images = v;
+    else if (k == "--bag")
+      a.bag = v;
+    else if (k == "--topic")
+      a.topic = v;
+    else if (k == "--out")
+      a.out = v;
+    else if (k == "--config")
+      a.config = v;
+    else if (k == "--model")
+      a.model = v;
+    else if (k == "--camera-name")
+      a.camera_name = v;
+    else if (k == "--board")
+      a.board = v;
     else if (k == "--square" || k == "--min-novelty") {
       char* end = nullptr;
       const double x = std::strtod(v.c_str(), &end);
@@ -100,7 +108,8 @@ std::string defaultConfigPath() {
 }
 
 // Feeds frames (image, name) to `sink`; throws InputError for unusable input.
-using FrameSink = std::function<void(const cv::Mat&, const std::string&, size_t index, size_t total)>;
+using FrameSink =
+    std::function<void(const cv::Mat&, const std::string&, size_t index, size_t total)>;
 
 void readImages(const std::string& pattern, const FrameSink& sink) {
   glob_t g;
@@ -114,7 +123,9 @@ void readImages(const std::string& pattern, const FrameSink& sink) {
   for (size_t i = 0; i < files.size(); ++i) {
     // Grey: the detection and the calibration use grey only (and it decodes faster).
     const cv::Mat img = cv::imread(files[i], cv::IMREAD_GRAYSCALE);
-    if (img.empty()) throw InputError(files[i] + ": cannot read or decode the image (missing, unreadable or corrupt)");
+    if (img.empty())
+      throw InputError(files[i] +
+                       ": cannot read or decode the image (missing, unreadable or corrupt)");
     sink(img, files[i], i, files.size());
   }
 }
@@ -131,10 +142,12 @@ void readBag(const std::string& path, const std::string& topic, const FrameSink&
   if (view.size() == 0) {
     std::set<std::string> topics;
     rosbag::View all(bag);
-    for (const rosbag::ConnectionInfo* c : all.getConnections()) topics.insert(c->topic + " (" + c->datatype + ")");
+    for (const rosbag::ConnectionInfo* c : all.getConnections())
+      topics.insert(c->topic + " (" + c->datatype + ")");
     std::string list;
     for (const auto& t : topics) list += "\n  " + t;
-    throw InputError(path + ": no messages on topic '" + topic + "'; the bag has:" + (list.empty() ? " nothing" : list));
+    throw InputError(path + ": no messages on topic '" + topic +
+                     "'; the bag has:" + (list.empty() ? " nothing" : list));
   }
   const size_t total = view.size();
   size_t index = 0;
@@ -161,7 +174,8 @@ void readBag(const std::string& path, const std::string& topic, const FrameSink&
     }
     ++index;
   }
-  if (undecodable.size() == total) throw InputError(path + ": no frame on '" + topic + "' could be decoded");
+  if (undecodable.size() == total)
+    throw InputError(path + ": no frame on '" + topic + "' could be decoded");
 }
 
 sensor_msgs::CameraInfo toCameraInfo(const Intrinsics& in) {
@@ -176,10 +190,12 @@ sensor_msgs::CameraInfo toCameraInfo(const Intrinsics& in) {
   // rectified image with alpha (balance) 0, i.e. only valid pixels.
   cv::Mat p;
   if (in.model == DistortionModel::kEquidistant) {
-    cv::fisheye::estimateNewCameraMatrixForUndistortRectify(cv::Mat(in.camera_matrix), cv::Mat(in.distortion),
-                                                            in.image_size, cv::Mat::eye(3, 3, CV_64F), p, 0.0);
+    cv::fisheye::estimateNewCameraMatrixForUndistortRectify(cv::Mat(in.camera_matrix),
+                                                            cv::Mat(in.distortion), in.image_size,
+                                                            cv::Mat::eye(3, 3, CV_64F), p, 0.0);
   } else {
-    p = cv::getOptimalNewCameraMatrix(cv::Mat(in.camera_matrix), cv::Mat(in.distortion), in.image_size, 0.0);
+    p = cv::getOptimalNewCameraMatrix(cv::Mat(in.camera_matrix), cv::Mat(in.distortion),
+                                      in.image_size, 0.0);
   }
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) ci.P[static_cast<size_t>(r * 4 + c)] = p.at<double>(r, c);
@@ -195,7 +211,8 @@ std::string viewsDirFor(const std::string& out) {
 // The views used, each as a lossless image and its corners, so the result can be audited and
 // recomputed; written before the calibration file itself.
 void saveViews(const std::string& dir, const std::vector<CalibrationView>& views,
-               const CalibrationResult& result, const std::map<int, cv::Mat>& frames, const Args& args) {
+               const CalibrationResult& result, const std::map<int, cv::Mat>& frames,
+               const Args& args) {
   std::ostringstream y;
   y << "# Views used by calibrate_camera for " << fs::path(args.out).filename().string()
     << "; corners in pixels, pattern row-major order\n";
@@ -205,10 +222,12 @@ void saveViews(const std::string& dir, const std::vector<CalibrationView>& views
     char name[32];
     std::snprintf(name, sizeof name, "view_%03zu.png", u);
     std::vector<uchar> png;
-    if (!cv::imencode(".png", frames.at(v.frame_index), png)) throw IoError(std::string("cannot encode ") + name);
-    writeFileAtomically(dir + "/" + name, std::string(png.begin(), png.end()), AtomicWriteOptions{"", true});
-    y << "  - image: " << name << "\n    source: \"" << v.source << "\"\n    rms_px: " << result.per_view_rms_px[u]
-      << "\n    corners: [";
+    if (!cv::imencode(".png", frames.at(v.frame_index), png))
+      throw IoError(std::string("cannot encode ") + name);
+    writeFileAtomically(dir + "/" + name, std::string(png.begin(), png.end()),
+                        AtomicWriteOptions{"", true});
+    y << "  - image: " << name << "\n    source: \"" << v.source
+      << "\"\n    rms_px: " << result.per_view_rms_px[u] << "\n    corners: [";
     for (size_t c = 0; c < v.corners.size(); ++c) {
       y << (c ? ", " : "") << "[" << v.corners[c].x << ", " << v.corners[c].y << "]";
     }
@@ -248,7 +267,8 @@ int run(const Args& args) {
       const ViewDecision& d = r.decisions[b];
       const std::string label = r.decisions.size() > 1 ? " board " + std::to_string(b) : "";
       if (!d.kept) refused.push_back(name + label + ": " + d.reason);
-      what += (what.empty() ? "" : "; ") + label.substr(label.empty() ? 0 : 1) + (label.empty() ? "" : " ") + d.reason;
+      what += (what.empty() ? "" : "; ") + label.substr(label.empty() ? 0 : 1) +
+              (label.empty() ? "" : " ") + d.reason;
     }
     // Every image of a folder, and about every 2 % of a bag, gets a progress line.
     const size_t step = std::max<size_t>(1, total / 50);
@@ -269,7 +289,8 @@ int run(const Args& args) {
   const std::vector<CalibrationView>& views = collector.views();
   if (views.empty()) {
     throw CalibrationError("no usable view of a " + std::to_string(pattern.width) + "x" +
-                           std::to_string(pattern.height) + " board in " + std::to_string(collector.frames()) +
+                           std::to_string(pattern.height) + " board in " +
+                           std::to_string(collector.frames()) +
                            " frames (check --board: inner corners, not squares)");
   }
   std::vector<std::vector<cv::Point2f>> corners;
@@ -280,41 +301,49 @@ int run(const Args& args) {
   const double seconds = std::chrono::duration<double>(t2 - t0).count();
 
   const Intrinsics& in = result.intrinsics;
-  std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.model).c_str(), result.fitted_terms.c_str());
+  std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.model).c_str(),
+              result.fitted_terms.c_str());
   std::printf("image: %dx%d\n", in.image_size.width, in.image_size.height);
   const auto sd = [&](size_t i) { return i < result.std_devs.size() ? result.std_devs[i] : 0.0; };
-  std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n", in.fx(), sd(0),
-              in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
+  std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
+              in.fx(), sd(0), in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
   std::printf("distortion:");
   for (size_t i = 0; i < in.distortion.size(); ++i) std::printf(" %.6f", in.distortion[i]);
   std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);
-  std::printf("views used: %zu of %zu kept views (%d frames)\n", result.used_views.size(), views.size(),
-              collector.frames());
+  std::printf("views used: %zu of %zu kept views (%d frames)\n", result.used_views.size(),
+              views.size(), collector.frames());
   for (size_t u = 0; u < result.used_views.size(); ++u) {
-    std::printf("  used %s: RMS %.3f px\n", views[static_cast<size_t>(result.used_views[u])].source.c_str(),
+    std::printf("  used %s: RMS %.3f px\n",
+                views[static_cast<size_t>(result.used_views[u])].source.c_str(),
                 result.per_view_rms_px[u]);
   }
   if (result.dropped_corners) std::printf("outlier corners dropped: %d\n", result.dropped_corners);
   std::printf("refused: %zu\n", refused.size() + result.dropped_views.size());
   for (const auto& r : refused) std::printf("  refused %s\n", r.c_str());
   for (const auto& d : result.dropped_views) {
-    std::printf("  refused %s: %s\n", views[static_cast<size_t>(d.index)].source.c_str(), d.reason.c_str());
+    std::printf("  refused %s: %s\n", views[static_cast<size_t>(d.index)].source.c_str(),
+                d.reason.c_str());
   }
   std::printf("selection: %s\n", result.selection_reason.c_str());
-  std::printf("images to intrinsics: %.3f s (reading and detection %.3f s, calibration %.3f s)\n", seconds,
-              std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
+  std::printf("images to intrinsics: %.3f s (reading and detection %.3f s, calibration %.3f s)\n",
+              seconds, std::chrono::duration<double>(t1 - t0).count(),
+              std::chrono::duration<double>(t2 - t1).count());
 
   if (args.holdout) {
-    const HoldoutEvaluation ours = leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kAutocal);
-    const HoldoutEvaluation plain =
-        leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kPlainOpenCv);
-    std::printf("holdout: autocal %.4f px fx_spread %.3f px | plain_opencv %.4f px fx_spread %.3f px (%zu folds)\n",
-                ours.mean_rms_px, ours.fx_spread_px, plain.mean_rms_px, plain.fx_spread_px, corners.size());
+    const HoldoutEvaluation ours =
+        leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kAutocal);
+    const HoldoutEvaluation plain = leaveOneOut(corners, collector.imageSize(), config.calibration,
+                                                HoldoutMethod::kPlainOpenCv);
+    std::printf(
+        "holdout: autocal %.4f px fx_spread %.3f px | plain_opencv %.4f px fx_spread %.3f px (%zu "
+        "folds)\n",
+        ours.mean_rms_px, ours.fx_spread_px, plain.mean_rms_px, plain.fx_spread_px, corners.size());
   }
 
   const std::vector<std::string> failures = checkQuality(result, config.quality_gate);
   if (!failures.empty()) {
-    std::string msg = "the result fails the quality gate, nothing written (" + args.out + " untouched):";
+    std::string msg =
+        "the result fails the quality gate, nothing written (" + args.out + " untouched):";
     for (const auto& f : failures) msg += "\n  " + f;
     throw CalibrationError(msg);
   }

@@ -4,12 +4,11 @@
 // Used by scripts/bench/camera.sh.
 #include <glob.h>
 
+#include <chrono>
+#include <cstdio>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <chrono>
-#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -27,7 +26,8 @@ std::vector<cv::Mat> load(const std::string& pattern) {
     for (size_t i = 0; i < g.gl_pathc; ++i) {
       cv::Mat img = cv::imread(g.gl_pathv[i], cv::IMREAD_GRAYSCALE);
       if (img.empty()) continue;
-      if (img.size() != cv::Size(640, 480)) cv::resize(img, img, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
+      if (img.size() != cv::Size(640, 480))
+        cv::resize(img, img, cv::Size(640, 480), 0, 0, cv::INTER_AREA);
       out.push_back(img);
     }
   }
@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);
   const std::vector<cv::Mat> with_board = load(data + "/left[0-9]*.jpg");
   std::vector<cv::Mat> without;
-  for (const char* name : {"fruits.jpg", "building.jpg", "home.jpg", "baboon.jpg", "aloeL.jpg", "stuff.jpg"}) {
+  for (const char* name :
+       {"fruits.jpg", "building.jpg", "home.jpg", "baboon.jpg", "aloeL.jpg", "stuff.jpg"}) {
     for (const cv::Mat& m : load(data + "/" + name)) without.push_back(m);
   }
   if (with_board.empty() || without.empty()) {
@@ -64,9 +65,14 @@ int main(int argc, char** argv) {
   one.max_boards = 1;
   ChessboardDetectorOptions multi;  // default: up to 4 boards
   int found = 0;
-  const double board_one = msPerFrame(with_board, rounds, [&](const cv::Mat& m) { found += static_cast<int>(detectChessboards(m, one).size()); });
-  const double board_multi = msPerFrame(with_board, rounds, [&](const cv::Mat& m) { detectChessboards(m, multi); });
-  const double none_multi = msPerFrame(without, rounds, [&](const cv::Mat& m) { found += static_cast<int>(detectChessboards(m, multi).size()); });
+  const double board_one = msPerFrame(with_board, rounds, [&](const cv::Mat& m) {
+    found += static_cast<int>(detectChessboards(m, one).size());
+  });
+  const double board_multi =
+      msPerFrame(with_board, rounds, [&](const cv::Mat& m) { detectChessboards(m, multi); });
+  const double none_multi = msPerFrame(without, rounds, [&](const cv::Mat& m) {
+    found += static_cast<int>(detectChessboards(m, multi).size());
+  });
   // The whole per-frame path of a kept view: detect, blur metric, diversity, refinement.
   const double kept = msPerFrame(with_board, rounds, [&](const cv::Mat& m) {
     ViewSelectionOptions sel;

@@ -2,20 +2,19 @@
 // camera_info YAML and audited views out; bad input gives a clear message and a non-zero exit,
 // and a failed run never touches an existing calibration file.
 #include <gtest/gtest.h>
-#include <rosbag/bag.h>
 #include <ros/time.h>
+#include <rosbag/bag.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <std_msgs/String.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/io/atomic_file.h"
 
@@ -45,7 +44,8 @@ std::vector<std::string> photos() {
   std::vector<std::string> out;
   for (const auto& e : fs::directory_iterator(kData)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind("left", 0) == 0 && name.size() == 10 && e.path().extension() == ".jpg") out.push_back(e.path().string());
+    if (name.rfind("left", 0) == 0 && name.size() == 10 && e.path().extension() == ".jpg")
+      out.push_back(e.path().string());
   }
   std::sort(out.begin(), out.end());
   return out;
@@ -64,12 +64,16 @@ class ToolTest : public ::testing::Test {
   fs::path dir_;
 };
 
-std::string board() { return " --board 9x6 --square 0.025 --config " + std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml"; }
+std::string board() {
+  return " --board 9x6 --square 0.025 --config " + std::string(AUTOCAL_SOURCE_DIR) +
+         "/config/camera_calibration.yaml";
+}
 
 }  // namespace
 
 TEST_F(ToolTest, ImageFolderWritesCameraInfoAndViews) {
-  const ToolRun r = runTool("--images '" + kData + "/left[0-9]*.jpg'" + board() + " --out " + path("cam.yaml"));
+  const ToolRun r =
+      runTool("--images '" + kData + "/left[0-9]*.jpg'" + board() + " --out " + path("cam.yaml"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("RMS reprojection error"), std::string::npos);
   EXPECT_NE(r.output.find("[13/13]"), std::string::npos) << "progress lines";
@@ -107,19 +111,24 @@ TEST_F(ToolTest, BagsOfCompressedAndRawImages) {
     s.data = "not an image";
     bag.write("/chatter", ros::Time(20.0), s);
   }
-  const ToolRun c = runTool("--bag " + path("frames.bag") + " --topic /veh/camera_node/image/compressed" + board() +
-                        " --out " + path("c.yaml"));
+  const ToolRun c =
+      runTool("--bag " + path("frames.bag") + " --topic /veh/camera_node/image/compressed" +
+              board() + " --out " + path("c.yaml"));
   ASSERT_EQ(c.exit_code, 0) << c.output;
-  const ToolRun r = runTool("--bag " + path("frames.bag") + " --topic /veh/camera_node/image/raw" + board() +
-                        " --out " + path("r.yaml"));
+  const ToolRun r = runTool("--bag " + path("frames.bag") + " --topic /veh/camera_node/image/raw" +
+                            board() + " --out " + path("r.yaml"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(path("r_views/views.yaml")));
 
-  const ToolRun missing = runTool("--bag " + path("frames.bag") + " --topic /nope" + board() + " --out " + path("m.yaml"));
+  const ToolRun missing = runTool("--bag " + path("frames.bag") + " --topic /nope" + board() +
+                                  " --out " + path("m.yaml"));
   EXPECT_EQ(missing.exit_code, 1);
-  EXPECT_NE(missing.output.find("no messages on topic '/nope'"), std::string::npos) << missing.output;
-  EXPECT_NE(missing.output.find("/veh/camera_node/image/compressed"), std::string::npos) << missing.output;
-  const ToolRun wrong = runTool("--bag " + path("frames.bag") + " --topic /chatter" + board() + " --out " + path("w.yaml"));
+  EXPECT_NE(missing.output.find("no messages on topic '/nope'"), std::string::npos)
+      << missing.output;
+  EXPECT_NE(missing.output.find("/veh/camera_node/image/compressed"), std::string::npos)
+      << missing.output;
+  const ToolRun wrong = runTool("--bag " + path("frames.bag") + " --topic /chatter" + board() +
+                                " --out " + path("w.yaml"));
   EXPECT_EQ(wrong.exit_code, 1);
   EXPECT_NE(wrong.output.find("std_msgs/String"), std::string::npos) << wrong.output;
   EXPECT_FALSE(fs::exists(path("m.yaml")));
@@ -128,36 +137,46 @@ TEST_F(ToolTest, BagsOfCompressedAndRawImages) {
 TEST_F(ToolTest, BadInputIsRefusedAndNeverOverwritesAGoodFile) {
   autocal::writeFileAtomically(path("good.yaml"), "previous good calibration\n");
   fs::create_directories(path("corrupt"));
-  for (const std::string& f : photos()) fs::copy_file(f, path("corrupt/" + fs::path(f).filename().string()));
+  for (const std::string& f : photos())
+    fs::copy_file(f, path("corrupt/" + fs::path(f).filename().string()));
   {
     std::ofstream bad(path("corrupt/zz_broken.jpg"));
     bad << "this is not a JPEG";
   }
-  const ToolRun corrupt = runTool("--images '" + path("corrupt/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
+  const ToolRun corrupt =
+      runTool("--images '" + path("corrupt/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
   EXPECT_EQ(corrupt.exit_code, 1);
-  EXPECT_NE(corrupt.output.find("zz_broken.jpg: cannot read or decode"), std::string::npos) << corrupt.output;
+  EXPECT_NE(corrupt.output.find("zz_broken.jpg: cannot read or decode"), std::string::npos)
+      << corrupt.output;
 
   fs::create_directories(path("mixed"));
-  for (const std::string& f : photos()) fs::copy_file(f, path("mixed/" + fs::path(f).filename().string()));
+  for (const std::string& f : photos())
+    fs::copy_file(f, path("mixed/" + fs::path(f).filename().string()));
   cv::Mat small;
   cv::resize(cv::imread(photos()[0]), small, cv::Size(320, 240));
   cv::imwrite(path("mixed/small.jpg"), small);
-  const ToolRun mixed = runTool("--images '" + path("mixed/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
+  const ToolRun mixed =
+      runTool("--images '" + path("mixed/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
   EXPECT_EQ(mixed.exit_code, 1);
-  EXPECT_NE(mixed.output.find("one calibration needs one image size"), std::string::npos) << mixed.output;
+  EXPECT_NE(mixed.output.find("one calibration needs one image size"), std::string::npos)
+      << mixed.output;
 
-  const ToolRun none = runTool("--images '" + path("nothing/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
+  const ToolRun none =
+      runTool("--images '" + path("nothing/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
   EXPECT_EQ(none.exit_code, 1);
   EXPECT_NE(none.output.find("no file matches"), std::string::npos) << none.output;
 
   // The wrong board size: no view at all, a calibration failure (exit 2).
-  const ToolRun wrong_board = runTool("--images '" + kData + "/left0[1-3].jpg' --board 7x5 --square 0.025 --config " +
-                                  std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml --out " + path("good.yaml"));
+  const ToolRun wrong_board =
+      runTool("--images '" + kData + "/left0[1-3].jpg' --board 7x5 --square 0.025 --config " +
+              std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml --out " +
+              path("good.yaml"));
   EXPECT_EQ(wrong_board.exit_code, 2);
   EXPECT_NE(wrong_board.output.find("no usable view"), std::string::npos) << wrong_board.output;
 
   // Too few views: refused, nothing written.
-  const ToolRun few = runTool("--images '" + kData + "/left0[1-3].jpg'" + board() + " --out " + path("good.yaml"));
+  const ToolRun few =
+      runTool("--images '" + kData + "/left0[1-3].jpg'" + board() + " --out " + path("good.yaml"));
   EXPECT_EQ(few.exit_code, 2);
   EXPECT_NE(few.output.find("too few views"), std::string::npos) << few.output;
 

@@ -1,13 +1,12 @@
 // Accuracy on real photos: OpenCV's sample images (Debian opencv-doc, left*.jpg, 9x6 inner
 // corners, 25 mm squares) and OpenCV's own reference result for them (left_intrinsics.yml).
-#include <gtest/gtest.h>
 #include <glob.h>
+#include <gtest/gtest.h>
 
+#include <chrono>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <chrono>
 #include <string>
 #include <vector>
 
@@ -72,9 +71,11 @@ TEST(CameraRealPhotos, FocalLengthWithinTwoPercentOfOpenCvReference) {
   const Photos& p = loadPhotos();
   ASSERT_EQ(p.autocal_corners.size(), 13u);
   const CalibrationResult r = calibrate(p.autocal_corners, p.size, CalibrationOptions());
-  std::printf("autocal: fx %.2f fy %.2f cx %.2f cy %.2f rms %.3f px, terms: %s, %zu views, %d corners dropped\n",
-              r.intrinsics.fx(), r.intrinsics.fy(), r.intrinsics.cx(), r.intrinsics.cy(), r.rms_px,
-              r.fitted_terms.c_str(), r.used_views.size(), r.dropped_corners);
+  std::printf(
+      "autocal: fx %.2f fy %.2f cx %.2f cy %.2f rms %.3f px, terms: %s, %zu views, %d corners "
+      "dropped\n",
+      r.intrinsics.fx(), r.intrinsics.fy(), r.intrinsics.cx(), r.intrinsics.cy(), r.rms_px,
+      r.fitted_terms.c_str(), r.used_views.size(), r.dropped_corners);
   EXPECT_NEAR(r.intrinsics.fx(), kReferenceFx, 0.02 * kReferenceFx);
   EXPECT_NEAR(r.intrinsics.fy(), kReferenceFx, 0.02 * kReferenceFx);
   EXPECT_TRUE(checkQuality(r, QualityGateOptions()).empty());
@@ -88,16 +89,20 @@ TEST(CameraRealPhotos, HeldOutErrorNoWorseThanPlainOpenCv) {
   ASSERT_EQ(p.autocal_corners.size(), 13u);
   const CalibrationOptions options;
   const auto t0 = std::chrono::steady_clock::now();
-  const HoldoutEvaluation ours = leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kAutocal);
+  const HoldoutEvaluation ours =
+      leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kAutocal);
   const auto t1 = std::chrono::steady_clock::now();
-  const HoldoutEvaluation plain_same = leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
-  const HoldoutEvaluation plain_sample = leaveOneOut(p.sample_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
-  std::printf("leave-one-out held-out RMS [px]: autocal %.3f (fx spread %.2f px, %.1f s) | "
-              "plain calibrateCamera on autocal's corners %.3f (spread %.2f) | "
-              "plain calibrateCamera on OpenCV-sample corners %.3f (spread %.2f)\n",
-              ours.mean_rms_px, ours.fx_spread_px,
-              std::chrono::duration<double>(t1 - t0).count(), plain_same.mean_rms_px,
-              plain_same.fx_spread_px, plain_sample.mean_rms_px, plain_sample.fx_spread_px);
+  const HoldoutEvaluation plain_same =
+      leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
+  const HoldoutEvaluation plain_sample =
+      leaveOneOut(p.sample_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
+  std::printf(
+      "leave-one-out held-out RMS [px]: autocal %.3f (fx spread %.2f px, %.1f s) | "
+      "plain calibrateCamera on autocal's corners %.3f (spread %.2f) | "
+      "plain calibrateCamera on OpenCV-sample corners %.3f (spread %.2f)\n",
+      ours.mean_rms_px, ours.fx_spread_px, std::chrono::duration<double>(t1 - t0).count(),
+      plain_same.mean_rms_px, plain_same.fx_spread_px, plain_sample.mean_rms_px,
+      plain_sample.fx_spread_px);
   EXPECT_LE(ours.mean_rms_px, plain_same.mean_rms_px * 1.0001);
   EXPECT_LE(ours.mean_rms_px, plain_sample.mean_rms_px);
 }

@@ -3,10 +3,9 @@
 // that must be refused with a clear reason.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <cmath>
 #include <random>
 
 #include "autocal/camera/calibration.h"
@@ -32,7 +31,8 @@ struct Truth {
 
 // Diverse poses: the board at 0.35..0.7 m, tilted up to ~40 degrees, centred at different places
 // of the image. Views that leave the image are skipped.
-std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, double noise_px, unsigned seed) {
+std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, double noise_px,
+                                                     unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1);
   std::normal_distribution<double> n(0, noise_px);
@@ -219,7 +219,8 @@ TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
   const Truth t;
   const auto views = syntheticViews(t, 10, 0.2, 10);
   const HoldoutEvaluation ours = leaveOneOut(views, kImage, options(), HoldoutMethod::kAutocal);
-  const HoldoutEvaluation plain = leaveOneOut(views, kImage, options(), HoldoutMethod::kPlainOpenCv);
+  const HoldoutEvaluation plain =
+      leaveOneOut(views, kImage, options(), HoldoutMethod::kPlainOpenCv);
   EXPECT_EQ(ours.fold_rms_px.size(), 10u);
   EXPECT_LT(ours.mean_rms_px, 0.35);
   EXPECT_LE(ours.mean_rms_px, plain.mean_rms_px * 1.05);
@@ -232,7 +233,8 @@ namespace {
 
 // A board texture: (cols+1) x (rows+1) squares of `s` px and a white margin of one square.
 cv::Mat boardTexture(int s) {
-  cv::Mat tex(cv::Size((kPattern.width + 3) * s, (kPattern.height + 3) * s), CV_8U, cv::Scalar(230));
+  cv::Mat tex(cv::Size((kPattern.width + 3) * s, (kPattern.height + 3) * s), CV_8U,
+              cv::Scalar(230));
   for (int r = 0; r <= kPattern.height; ++r) {
     for (int c = 0; c <= kPattern.width; ++c) {
       if ((r + c) % 2 == 0) tex(cv::Rect((c + 1) * s, (r + 1) * s, s, s)).setTo(25);
@@ -267,8 +269,8 @@ std::vector<cv::Point2f> renderBoard(cv::Mat& frame, const std::vector<cv::Point
   cv::Mat big_h = cv::Mat(scale) * h;
   cv::Mat big, mask_big, small, mask;
   cv::warpPerspective(tex, big, big_h, frame.size() * ss, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
-  cv::warpPerspective(cv::Mat(tex.size(), CV_8U, cv::Scalar(255)), mask_big, big_h, frame.size() * ss,
-                      cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(cv::Mat(tex.size(), CV_8U, cv::Scalar(255)), mask_big, big_h,
+                      frame.size() * ss, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
   cv::resize(big, small, frame.size(), 0, 0, cv::INTER_AREA);
   cv::resize(mask_big, mask, frame.size(), 0, 0, cv::INTER_AREA);
   small.copyTo(frame, mask > 128);
@@ -368,7 +370,8 @@ TEST(CameraImages, FramesOneAtATimeKeepOnlyNewViewsAndReportCoverage) {
 }
 
 TEST(CameraConfig, ShippedConfigLoadsAndMatchesDefaults) {
-  const auto c = loadCameraCalibrationConfig(std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml");
+  const auto c = loadCameraCalibrationConfig(std::string(AUTOCAL_SOURCE_DIR) +
+                                             "/config/camera_calibration.yaml");
   const CameraCalibrationConfig d;
   EXPECT_EQ(c.detector.pattern_size, d.detector.pattern_size);
   EXPECT_EQ(c.calibration.square_size_m, d.calibration.square_size_m);

@@ -4,9 +4,8 @@
 // only when it differs enough from every kept view; coverage tells when the views span enough.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <array>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 

@@ -1,11 +1,10 @@
 #include "autocal/camera/calibration.h"
 
-#include <opencv2/calib3d.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
+#include <opencv2/calib3d.hpp>
 #include <optional>
 
 #include "autocal/camera/view_selection.h"
@@ -28,7 +27,8 @@ std::string distortionModelName(DistortionModel model) {
 
 DistortionModel parseDistortionModel(const std::string& name) {
   if (name == "plumb_bob") return DistortionModel::kPlumbBob;
-  if (name == "rational_polynomial" || name == "rational") return DistortionModel::kRationalPolynomial;
+  if (name == "rational_polynomial" || name == "rational")
+    return DistortionModel::kRationalPolynomial;
   if (name == "equidistant" || name == "fisheye") return DistortionModel::kEquidistant;
   throw ConfigError("unknown distortion model '" + name +
                     "' (expected plumb_bob, rational_polynomial or equidistant)");
@@ -62,20 +62,25 @@ struct TermSet {
 std::vector<TermSet> termSets(DistortionModel model) {
   switch (model) {
     case DistortionModel::kPlumbBob:
-      return {{"k1 k2 (p1 p2 k3 fixed at 0)", cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3, {0, 1}},
-              {"k1 k2 p1 p2 (k3 fixed at 0)", cv::CALIB_FIX_K3, {2, 3}},
-              {"k1 k2 p1 p2 k3", 0, {4}}};
+      return {
+          {"k1 k2 (p1 p2 k3 fixed at 0)", cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3, {0, 1}},
+          {"k1 k2 p1 p2 (k3 fixed at 0)", cv::CALIB_FIX_K3, {2, 3}},
+          {"k1 k2 p1 p2 k3", 0, {4}}};
     case DistortionModel::kRationalPolynomial: {
       const int r = cv::CALIB_RATIONAL_MODEL;
       return {{"k1 k2 p1 p2 (k3..k6 fixed at 0)",
-               r | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6, {0, 1, 2, 3}},
+               r | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6,
+               {0, 1, 2, 3}},
               {"k1 k2 p1 p2 k3 (k4..k6 fixed at 0)",
-               r | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6, {4}},
+               r | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6,
+               {4}},
               {"k1 k2 p1 p2 k3 k4 k5 k6", r, {5, 6, 7}}};
     }
     case DistortionModel::kEquidistant: {
       const int f = cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW;
-      return {{"k1 k2 (k3 k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K3 | cv::fisheye::CALIB_FIX_K4, {0, 1}},
+      return {{"k1 k2 (k3 k4 fixed at 0)",
+               f | cv::fisheye::CALIB_FIX_K3 | cv::fisheye::CALIB_FIX_K4,
+               {0, 1}},
               {"k1 k2 k3 (k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K4, {2}},
               {"k1 k2 k3 k4", f, {3}}};
     }
@@ -117,14 +122,16 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       std::vector<std::vector<cv::Point2d>> img_d;
       for (const auto& o : obj) obj_d.emplace_back(o.begin(), o.end());
       for (const auto& i : img) img_d.emplace_back(i.begin(), i.end());
-      f.rms_px = cv::fisheye::calibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+      f.rms_px =
+          cv::fisheye::calibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
     } else {
       cv::Mat std_int, std_ext, per_view;
       f.rms_px = cv::calibrateCamera(obj, img, size, k, d, f.rvecs, f.tvecs, std_int, std_ext,
                                      per_view, flags, criteria);
       f.std_devs = {std_int.at<double>(0), std_int.at<double>(1), std_int.at<double>(2),
                     std_int.at<double>(3)};
-      for (size_t i = 0; i < distortionCount(model); ++i) f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
+      for (size_t i = 0; i < distortionCount(model); ++i)
+        f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
     }
   } catch (const cv::Exception& e) {
     throw CalibrationError(std::string("OpenCV could not fit the model: ") + e.what());
@@ -168,7 +175,8 @@ double heldOut(const Points3& obj, const Points2& img, const Intrinsics& in) {
   cv::Mat rvec, tvec;
   if (isFisheye(in.model)) {
     Points2 normalised;
-    cv::fisheye::undistortPoints(img, normalised, cv::Mat(in.camera_matrix), cv::Mat(in.distortion));
+    cv::fisheye::undistortPoints(img, normalised, cv::Mat(in.camera_matrix),
+                                 cv::Mat(in.distortion));
     cv::solvePnP(obj, normalised, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec);
   } else {
     cv::solvePnP(obj, img, cv::Mat(in.camera_matrix), cv::Mat(in.distortion), rvec, tvec);
@@ -250,11 +258,12 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       }
     }
     const double spread_xy = std::max(hi[0] - lo[0], hi[1] - lo[1]);
-    const double spread_size = hi[2] - lo[2], spread_skew = hi[3] - lo[3], spread_tilt = hi[5] - lo[5];
+    const double spread_size = hi[2] - lo[2], spread_skew = hi[3] - lo[3],
+                 spread_tilt = hi[5] - lo[5];
     if (std::max({spread_xy, spread_size, spread_skew, spread_tilt}) < options.min_param_spread) {
       throw CalibrationError(
-          fmt("views all alike: position spread %.3f, size spread %.3f, skew spread %.3f", spread_xy,
-              spread_size, spread_skew) +
+          fmt("views all alike: position spread %.3f, size spread %.3f, skew spread %.3f",
+              spread_xy, spread_size, spread_skew) +
           fmt(", tilt spread %.3f (< %.3f each); move or tilt the board between views", spread_tilt,
               options.min_param_spread));
     }
@@ -287,9 +296,10 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   };
   std::vector<Points3> obj;
   std::vector<Points2> img;
-  const size_t min_active = std::max<size_t>(
-      static_cast<size_t>(options.min_views),
-      static_cast<size_t>(std::ceil(options.min_kept_fraction * static_cast<double>(views.size()))));
+  const size_t min_active =
+      std::max<size_t>(static_cast<size_t>(options.min_views),
+                       static_cast<size_t>(std::ceil(options.min_kept_fraction *
+                                                     static_cast<double>(views.size()))));
   // The judging fit of the last round, when that round dropped nothing: it is then the fit of
   // the judging term set on the final data, and the term selection below reuses it.
   std::optional<Fit> judge_fit;
@@ -307,13 +317,17 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     for (size_t a = 0; a < active.size(); ++a) {
       projected[a] = project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics);
       all_rms[a] = rms(projected[a], img[a]);
-      for (size_t j = 0; j < img[a].size(); ++j) residual[a].push_back(cv::norm(projected[a][j] - img[a][j]));
+      for (size_t j = 0; j < img[a].size(); ++j)
+        residual[a].push_back(cv::norm(projected[a][j] - img[a][j]));
     }
     std::vector<double> sorted = all_rms;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     const double median = sorted[sorted.size() / 2];
-    const double view_limit = std::max(options.outlier_view_factor * median, options.outlier_view_min_px);
-    const double corner_limit = std::max(options.outlier_corner_factor * median, options.outlier_corner_min_px);
+    const double view_limit =
+        std::max(options.outlier_view_factor * median, options.outlier_view_min_px);
+    const double corner_limit =
+        std::max(options.outlier_corner_factor * median, options.outlier_corner_min_px);
     std::vector<double> inlier_rms(active.size());
     std::vector<double> outlier_fraction(active.size());
     for (size_t a = 0; a < active.size(); ++a) {
@@ -326,15 +340,18 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
         }
       }
       inlier_rms[a] = inliers ? std::sqrt(s / inliers) : std::numeric_limits<double>::infinity();
-      outlier_fraction[a] = 1.0 - static_cast<double>(inliers) / static_cast<double>(residual[a].size());
+      outlier_fraction[a] =
+          1.0 - static_cast<double>(inliers) / static_cast<double>(residual[a].size());
     }
     auto badness = [&](size_t a) {
-      return outlier_fraction[a] > options.max_outlier_corner_fraction ? 1e9 + outlier_fraction[a] : inlier_rms[a];
+      return outlier_fraction[a] > options.max_outlier_corner_fraction ? 1e9 + outlier_fraction[a]
+                                                                       : inlier_rms[a];
     };
     // Worst views first, never below the minimum number of views.
     std::vector<size_t> order(active.size());
     std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return badness(a) > badness(b); });
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return badness(a) > badness(b); });
     std::vector<char> drop(active.size(), 0);
     size_t remaining = active.size();
     bool changed = false;
@@ -342,17 +359,20 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       const bool too_many = outlier_fraction[a] > options.max_outlier_corner_fraction;
       if (!too_many && inlier_rms[a] <= view_limit) break;
       if (remaining <= min_active) {
-        throw CalibrationError(fmt("too many outlier views: view RMS up to %.2f px against a median of %.2f px",
-                                   all_rms[order[0]], median) +
-                               "; " + std::to_string(active.size()) + " views left, at least " +
-                               std::to_string(min_active) + " needed");
+        throw CalibrationError(
+            fmt("too many outlier views: view RMS up to %.2f px against a median of %.2f px",
+                all_rms[order[0]], median) +
+            "; " + std::to_string(active.size()) + " views left, at least " +
+            std::to_string(min_active) + " needed");
       }
       drop[a] = 1;
       --remaining;
       result.dropped_views.push_back(
-          {active[a], too_many ? fmt("outlier view: %.0f %% of its corners off by more than %.2f px", 100 * outlier_fraction[a], corner_limit)
-                               : fmt("outlier view: RMS %.2f px > %.2f px (%.1f x median)", inlier_rms[a], view_limit,
-                                     options.outlier_view_factor)});
+          {active[a], too_many
+                          ? fmt("outlier view: %.0f %% of its corners off by more than %.2f px",
+                                100 * outlier_fraction[a], corner_limit)
+                          : fmt("outlier view: RMS %.2f px > %.2f px (%.1f x median)",
+                                inlier_rms[a], view_limit, options.outlier_view_factor)});
       changed = true;
     }
     for (size_t a = 0; a < active.size(); ++a) {
@@ -386,9 +406,12 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   static const char* kTermNames[3][8] = {{"k1", "k2", "p1", "p2", "k3", "", "", ""},
                                          {"k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"},
                                          {"k1", "k2", "k3", "k4", "", "", "", ""}};
-  const auto term_name = [&](int i) { return std::string(kTermNames[static_cast<int>(options.model)][i]); };
+  const auto term_name = [&](int i) {
+    return std::string(kTermNames[static_cast<int>(options.model)][i]);
+  };
   std::optional<Fit> final_fit;
-  if (options.select_distortion_terms && options.selection == CalibrationOptions::Selection::kSignificance &&
+  if (options.select_distortion_terms &&
+      options.selection == CalibrationOptions::Selection::kSignificance &&
       !isFisheye(options.model)) {
     // Drop the most complex group of terms while none of its terms stands out of its own
     // uncertainty: such a term fits the noise of these views, not the lens (issue 3: ROS's fits
@@ -401,15 +424,20 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       for (int i : sets[level].added) {
         const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
         const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
-        const double t = sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
+        const double t =
+            sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
         significant = significant || t >= options.min_term_significance;
-        why += (why.empty() ? "" : ", ") + term_name(i) + fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+        why += (why.empty() ? "" : ", ") + term_name(i) +
+               fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
       }
-      result.selection_reason += (result.selection_reason.empty() ? "" : "; ") + why +
-                                 (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
+      result.selection_reason +=
+          (result.selection_reason.empty() ? "" : "; ") + why +
+          (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
       if (significant) break;
       --level;
-      f = (level == judge_level && judge_fit) ? *judge_fit : fit(obj, img, image_size, options.model, sets[level].flags);
+      f = (level == judge_level && judge_fit)
+              ? *judge_fit
+              : fit(obj, img, image_size, options.model, sets[level].flags);
     }
     chosen = sets[level];
     final_fit = f;
@@ -418,11 +446,13 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     // the views cannot constrain lowers the training RMS and raises the error on unseen views.
     std::vector<double> scores;
     for (const TermSet& s : sets) {
-      scores.push_back(crossValidate(obj, img, image_size, options.model, s.flags, options.max_selection_folds));
+      scores.push_back(
+          crossValidate(obj, img, image_size, options.model, s.flags, options.max_selection_folds));
     }
     const double best = *std::min_element(scores.begin(), scores.end());
     for (size_t i = 0; i < sets.size(); ++i) {
-      result.selection_reason += (i ? "; " : "") + sets[i].name + fmt(": held-out %.4f px", scores[i]);
+      result.selection_reason +=
+          (i ? "; " : "") + sets[i].name + fmt(": held-out %.4f px", scores[i]);
     }
     for (size_t i = 0; i < sets.size(); ++i) {
       if (scores[i] <= best * (1 + options.selection_margin)) {
@@ -439,7 +469,8 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   result.fitted_terms = chosen.name;
   result.used_views = active;
   for (size_t a = 0; a < active.size(); ++a) {
-    result.per_view_rms_px.push_back(rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
+    result.per_view_rms_px.push_back(
+        rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
   }
   return result;
 }
@@ -489,7 +520,8 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
                       std::to_string(gate.min_views));
   }
   if (r.std_devs.size() >= 2) {
-    const double rel = std::max(r.std_devs[0] / r.intrinsics.fx(), r.std_devs[1] / r.intrinsics.fy());
+    const double rel =
+        std::max(r.std_devs[0] / r.intrinsics.fx(), r.std_devs[1] / r.intrinsics.fy());
     if (!(rel <= gate.max_focal_rel_std)) {
       reasons.push_back(fmt("focal length uncertain: std dev %.2f %% > %.2f %%", 100 * rel,
                             100 * gate.max_focal_rel_std));
@@ -499,11 +531,12 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
   const double dx = std::abs(r.intrinsics.cx() - s.width / 2.0) / s.width;
   const double dy = std::abs(r.intrinsics.cy() - s.height / 2.0) / s.height;
   if (!(std::max(dx, dy) <= gate.max_principal_offset_ratio)) {
-    reasons.push_back(fmt("principal point (%.1f, %.1f) px too far from the image centre", r.intrinsics.cx(),
-                          r.intrinsics.cy()) +
+    reasons.push_back(fmt("principal point (%.1f, %.1f) px too far from the image centre",
+                          r.intrinsics.cx(), r.intrinsics.cy()) +
                       fmt(" (> %.0f %% of the image size)", 100 * gate.max_principal_offset_ratio));
   }
-  if (!(r.intrinsics.fx() > 0 && r.intrinsics.fy() > 0)) reasons.push_back("focal length not positive");
+  if (!(r.intrinsics.fx() > 0 && r.intrinsics.fy() > 0))
+    reasons.push_back("focal length not positive");
   return reasons;
 }
 

@@ -19,12 +19,14 @@ void CameraCalibrationConfig::setBoard(const cv::Size& pattern_size, double squa
 cv::Size parseBoardSize(const std::string& text) {
   int cols = 0, rows = 0;
   char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &cols, &x, &rows, &extra) != 3 || (x != 'x' && x != 'X') ||
-      cols < 3 || rows < 3) {
-    throw ConfigError("board '" + text + "': expected inner corners as COLSxROWS, e.g. 9x6 (each >= 3)");
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &cols, &x, &rows, &extra) != 3 ||
+      (x != 'x' && x != 'X') || cols < 3 || rows < 3) {
+    throw ConfigError("board '" + text +
+                      "': expected inner corners as COLSxROWS, e.g. 9x6 (each >= 3)");
   }
   if (cols == rows) {
-    throw ConfigError("board '" + text + "': a square board's orientation is ambiguous; use one with "
+    throw ConfigError("board '" + text +
+                      "': a square board's orientation is ambiguous; use one with "
                       "different numbers of inner corners per row and column");
   }
   return cv::Size(cols, rows);
@@ -37,7 +39,8 @@ void CameraCalibrationConfig::validate() const {
   check(calibration.square_size_m > 0, "board.square_size_m", "must be > 0");
   check(detector.max_boards >= 1, "detection.max_boards", "must be >= 1");
   check(detector.refine_window_ratio > 0 && detector.refine_window_ratio < 0.5,
-        "detection.refine_window_ratio", "must be in (0, 0.5): the window must not reach the next corner");
+        "detection.refine_window_ratio",
+        "must be in (0, 0.5): the window must not reach the next corner");
   check(detector.refine_min_half_window_px >= 1 &&
             detector.refine_max_half_window_px >= detector.refine_min_half_window_px,
         "detection.refine_max_half_window_px", "must be >= refine_min_half_window_px >= 1");
@@ -45,7 +48,8 @@ void CameraCalibrationConfig::validate() const {
   check(selection.max_views >= selection.min_views && selection.min_views >= 1,
         "view_selection.max_views", "must be >= min_views >= 1");
   check(selection.max_edge_width_px > 0, "view_selection.max_edge_width_px", "must be > 0");
-  check(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio", "must be > 0");
+  check(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio",
+        "must be > 0");
   check(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
   check(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
   check(calibration.min_term_significance > 0, "calibration.min_term_significance", "must be > 0");
@@ -69,7 +73,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
   CameraCalibrationConfig c;
   {
     YamlMap b = root.map("board");
-    c.setBoard(parseBoardSize(b.required<std::string>("inner_corners")), b.required<double>("square_size_m"));
+    c.setBoard(parseBoardSize(b.required<std::string>("inner_corners")),
+               b.required<double>("square_size_m"));
     b.finish();
   }
   {
@@ -86,7 +91,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     YamlMap s = root.map("view_selection");
     c.selection.min_novelty = s.required<double>("min_novelty");
     const std::vector<double> goal = s.required<std::vector<double>>("goal_spread");
-    if (goal.size() != 6) s.fail("goal_spread", "expected 6 numbers: x, y, size, skew, distance, tilt");
+    if (goal.size() != 6)
+      s.fail("goal_spread", "expected 6 numbers: x, y, size, skew, distance, tilt");
     for (size_t i = 0; i < 6; ++i) c.selection.goal_spread[i] = goal[i];
     c.selection.min_views = s.required<int>("min_views");
     c.selection.max_views = s.required<int>("max_views");

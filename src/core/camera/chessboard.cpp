@@ -1,10 +1,9 @@
 #include "autocal/camera/chessboard.h"
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
 
@@ -34,8 +33,10 @@ double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const cv::Siz
   for (int r = 0; r < pattern_size.height; ++r) {
     for (int c = 0; c < pattern_size.width; ++c) {
       const cv::Point2f& p = corners[r * pattern_size.width + c];
-      if (c + 1 < pattern_size.width) best = std::min(best, cv::norm(p - corners[r * pattern_size.width + c + 1]));
-      if (r + 1 < pattern_size.height) best = std::min(best, cv::norm(p - corners[(r + 1) * pattern_size.width + c]));
+      if (c + 1 < pattern_size.width)
+        best = std::min(best, cv::norm(p - corners[r * pattern_size.width + c + 1]));
+      if (r + 1 < pattern_size.height)
+        best = std::min(best, cv::norm(p - corners[(r + 1) * pattern_size.width + c]));
     }
   }
   return best;

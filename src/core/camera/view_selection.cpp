@@ -1,12 +1,11 @@
 #include "autocal/camera/view_selection.h"
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/camera/calibration.h"
 #include "autocal/errors.h"
@@ -70,7 +69,8 @@ std::string Coverage::summary() const {
 }
 
 bool FrameResult::any_kept() const {
-  return std::any_of(decisions.begin(), decisions.end(), [](const ViewDecision& d) { return d.kept; });
+  return std::any_of(decisions.begin(), decisions.end(),
+                     [](const ViewDecision& d) { return d.kept; });
 }
 
 ViewCollector::ViewCollector(const ChessboardDetectorOptions& detector,

@@ -267,9 +267,12 @@ int run(const Args& args) {
       const ViewDecision& d = r.decisions[b];
       const std::string label = r.decisions.size() > 1 ? " board " + std::to_string(b) : "";
       if (!d.kept) refused.push_back(name + label + ": " + d.reason);
+      char edge[48];
+      std::snprintf(edge, sizeof edge, " (edge width %.1f px)", d.edge_width_px);
       what += (what.empty() ? "" : "; ") + label.substr(label.empty() ? 0 : 1) +
-              (label.empty() ? "" : " ") + d.reason;
+              (label.empty() ? "" : " ") + d.reason + (d.kept ? edge : "");
     }
+    if (r.any_kept()) what += "; coverage " + collector.coverage().summary();
     // Every image of a folder, and about every 2 % of a bag, gets a progress line.
     const size_t step = std::max<size_t>(1, total / 50);
     if (args.bag.empty() || r.any_kept() || i % step == 0 || i + 1 == total) {

@@ -50,12 +50,13 @@ double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const cv::Siz
 void refineCorners(const cv::Mat& gray, BoardDetection& board,
                    const ChessboardDetectorOptions& options);
 
-/// Blur of the board region, as the width of its edges [px]: contrast over the steepest gradient
-/// (robust percentiles), taken in x and in y separately and the larger one returned, so that
-/// motion blur along one axis shows. A step edge blurred by a Gaussian of sigma s measures about
-/// 2.5 s. Paper 000 §6 asks for a sharpness metric (it cites a DCT-based one, ref. 13); on a
-/// chessboard the edge width is cheaper, does not depend on the board's scale in the image, and
-/// its threshold has a unit a user can reason about.
+/// Blur of the board region, as the width of its edges [px]: contrast (95th − 5th percentile of
+/// grey) over the steepest gradient (99th percentile of central differences), in x and in y
+/// separately, the larger one returned so that motion blur along one axis shows. A perfectly
+/// sharp edge measures 2 px; a Gaussian blur of sigma s widens it to about 2.5 s. Paper 000 §6
+/// asks for a sharpness metric (it cites a DCT-based one, ref. 13); on a chessboard the edge
+/// width is cheaper, does not depend on the board's scale in the image, and its threshold has a
+/// unit a user can reason about.
 double edgeWidthPx(const cv::Mat& gray, const std::vector<cv::Point2f>& corners);
 
 /// Converts any 8-bit 1/3/4-channel image to grey; throws InputError for other types.

@@ -44,8 +44,10 @@ struct ViewSelectionOptions {
   double nominal_focal_width_ratio = 0.85;
   /// Distance that maps to 1 in ViewParams::distance [m].
   double max_distance_m = 3.0;
-  /// Views whose edges are wider than this are refused as blurred [px].
-  double max_edge_width_px = 4.0;
+  /// Views whose edges are wider than this are refused as blurred [px] (see edgeWidthPx: a
+  /// perfectly sharp edge measures 2 px, OpenCV's sample photos 2.6–3.4 px, a Gaussian blur of
+  /// sigma 3 px more than 6 px).
+  double max_edge_width_px = 5.0;
 };
 
 /// The parameters of a board view in an image of the given size.

@@ -215,6 +215,36 @@ TEST(CameraSynthetic, QualityGateRefusesNoisyResult) {
   EXPECT_NE(reasons[0].find("RMS reprojection error"), std::string::npos) << reasons[0];
 }
 
+TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
+  const Truth t;
+  const auto views = syntheticViews(t, 60, 0.1, 12);
+  ViewSelectionOptions sel;
+  sel.min_novelty = 0.05;
+  ViewCollector collector{ChessboardDetectorOptions(), sel};
+  int kept = 0;
+  bool sufficient_before_max = false;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const ViewDecision d =
+        collector.addView(views[i], kImage, 2.0, "synthetic " + std::to_string(i));
+    kept += d.kept;
+    const Coverage c = collector.coverage();
+    if (c.sufficient && c.views < sel.max_views) sufficient_before_max = true;
+  }
+  const Coverage c = collector.coverage();
+  EXPECT_EQ(kept, sel.max_views);
+  EXPECT_TRUE(c.sufficient) << c.summary();
+  std::printf("coverage after %zu views offered: %s (full spread before max_views: %s)\n",
+              views.size(), c.summary().c_str(), sufficient_before_max ? "yes" : "no");
+  const ViewDecision extra = collector.addView(views[0], kImage, 2.0, "extra");
+  EXPECT_FALSE(extra.kept);
+  EXPECT_NE(extra.reason.find("enough views"), std::string::npos) << extra.reason;
+  // A blurred view is refused before anything else is judged.
+  ViewCollector fresh{ChessboardDetectorOptions(), sel};
+  const ViewDecision blurred = fresh.addView(views[0], kImage, 9.0, "blurred");
+  EXPECT_FALSE(blurred.kept);
+  EXPECT_NE(blurred.reason.find("blurred"), std::string::npos) << blurred.reason;
+}
+
 TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
   const Truth t;
   const auto views = syntheticViews(t, 10, 0.2, 10);

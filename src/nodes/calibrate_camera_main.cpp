@@ -308,8 +308,14 @@ int run(const Args& args) {
               result.fitted_terms.c_str());
   std::printf("image: %dx%d\n", in.image_size.width, in.image_size.height);
   const auto sd = [&](size_t i) { return i < result.std_devs.size() ? result.std_devs[i] : 0.0; };
-  std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
-              in.fx(), sd(0), in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
+  if (result.std_devs.empty()) {
+    // OpenCV's fisheye calibration reports no standard deviations.
+    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations for %s)\n", in.fx(),
+                in.fy(), in.cx(), in.cy(), distortionModelName(in.model).c_str());
+  } else {
+    std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
+                in.fx(), sd(0), in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
+  }
   std::printf("distortion:");
   for (size_t i = 0; i < in.distortion.size(); ++i) std::printf(" %.6f", in.distortion[i]);
   std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);

@@ -106,3 +106,27 @@ TEST(CameraRealPhotos, HeldOutErrorNoWorseThanPlainOpenCv) {
   EXPECT_LE(ours.mean_rms_px, plain_same.mean_rms_px * 1.0001);
   EXPECT_LE(ours.mean_rms_px, plain_sample.mean_rms_px);
 }
+
+TEST(CameraRealPhotos, TwoRealBoardsInOneFrameAreSeparated) {
+  // Two photos side by side: one 1280x480 frame with two boards of the same size.
+  const auto files = photos();
+  ASSERT_GE(files.size(), 3u);
+  const cv::Mat a = cv::imread(files[0], cv::IMREAD_GRAYSCALE);
+  const cv::Mat b = cv::imread(files[2], cv::IMREAD_GRAYSCALE);
+  cv::Mat frame;
+  cv::hconcat(a, b, frame);
+  ChessboardDetectorOptions det;
+  std::vector<BoardDetection> boards = detectChessboards(frame, det);
+  ASSERT_EQ(boards.size(), 2u);
+  int left = 0, right = 0;
+  for (BoardDetection& board : boards) {
+    refineCorners(frame, board, det);
+    int in_left = 0;
+    for (const auto& p : board.corners) in_left += p.x < a.cols;
+    // All 54 corners on one side: never a mix of the two boards.
+    EXPECT_TRUE(in_left == 0 || in_left == 54) << in_left << " corners on the left";
+    (in_left ? left : right) += 1;
+  }
+  EXPECT_EQ(left, 1);
+  EXPECT_EQ(right, 1);
+}

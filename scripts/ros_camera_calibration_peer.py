@@ -27,6 +27,7 @@ def main():
     ap.add_argument('--board', default='9x6', help='inner corners COLSxROWS')
     ap.add_argument('--square', type=float, default=0.025, help='square size [m]')
     ap.add_argument('--flags', type=int, default=cv2.CALIB_FIX_K3, help='cv2.calibrateCamera flags')
+    ap.add_argument('--no-holdout', action='store_true', help='stop after the intrinsics (for timing)')
     args = ap.parse_args()
     cols, rows = (int(x) for x in args.board.lower().split('x'))
     files = sorted(glob.glob(args.images))
@@ -44,7 +45,10 @@ def main():
     cal.cal_fromcorners(good)
     seconds = time.perf_counter() - t0
 
-    # Training RMS with the poses OpenCV would fit.
+    k = cal.intrinsics
+    if args.no_holdout:
+        print(json.dumps({'tool': 'ros_camera_calibration', 'seconds': seconds, 'fx': float(k[0, 0])}))
+        return
     (ipts, ids, boards) = zip(*good)
     opts = cal.mk_object_points(boards)
 
@@ -60,7 +64,6 @@ def main():
         c.cal_fromcorners([g for j, g in enumerate(good) if j != i])
         fold_rms.append(held_out_rms(c.intrinsics, c.distortion, opts[i], ipts[i]))
         fold_fx.append(float(c.intrinsics[0, 0]))
-    k = cal.intrinsics
     print(json.dumps({
         'tool': 'ros_camera_calibration', 'images': len(files), 'views': len(good),
         'seconds': seconds, 'fx': float(k[0, 0]), 'fy': float(k[1, 1]), 'cx': float(k[0, 2]),

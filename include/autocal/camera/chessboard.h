@@ -15,7 +15,9 @@ struct ChessboardDetectorOptions {
   cv::Size pattern_size{9, 6};
   /// At most this many boards are searched for in one frame.
   int max_boards = 4;
-  /// Use OpenCV's fast check (rejects frames without a board in a few ms).
+  /// Use OpenCV's fast check (rejects frames without a board in a few ms) when the
+  /// half-resolution precheck below is off or the image is smaller than 320x240 (after a positive
+  /// precheck it would only repeat the same test at full resolution).
   bool fast_check = true;
   /// Before each search, run cv::checkChessboard on a half-resolution copy (1–4 ms on 640x480)
   /// and skip the full search when it finds no board: frames without a board, and the repeated

@@ -212,11 +212,19 @@ std::string viewsDirFor(const std::string& out) {
 // recomputed; written before the calibration file itself.
 void saveViews(const std::string& dir, const std::vector<CalibrationView>& views,
                const CalibrationResult& result, const std::map<int, cv::Mat>& frames,
-               const Args& args) {
+               const Args& args, const CameraCalibrationConfig& config) {
   std::ostringstream y;
+  y.precision(10);
   y << "# Views used by calibrate_camera for " << fs::path(args.out).filename().string()
     << "; corners in pixels, pattern row-major order\n";
-  y << "rms_px: " << result.rms_px << "\nfitted_terms: \"" << result.fitted_terms << "\"\nviews:\n";
+  const cv::Size& pattern = config.calibration.pattern_size;
+  y << "board: {inner_corners: " << pattern.width << "x" << pattern.height
+    << ", square_size_m: " << config.calibration.square_size_m << "}\n";
+  y << "image: {width: " << result.intrinsics.image_size.width
+    << ", height: " << result.intrinsics.image_size.height << "}\n";
+  y << "distortion_model: " << distortionModelName(result.intrinsics.model) << "\n";
+  y << "rms_px: " << result.rms_px << "\nfitted_terms: \"" << result.fitted_terms
+    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\nviews:\n";
   for (size_t u = 0; u < result.used_views.size(); ++u) {
     const CalibrationView& v = views[static_cast<size_t>(result.used_views[u])];
     char name[32];
@@ -361,7 +369,7 @@ int run(const Args& args) {
     throw IoError("camera_calibration_parsers could not format the calibration");
   }
   const std::string views_dir = viewsDirFor(args.out);
-  saveViews(views_dir, views, result, kept_frames, args);
+  saveViews(views_dir, views, result, kept_frames, args, config);
   writeFileAtomically(args.out, yaml.str());
   std::printf("wrote %s and %s/\n", args.out.c_str(), views_dir.c_str());
   return 0;

@@ -180,6 +180,21 @@ TEST_F(ToolTest, BadInputIsRefusedAndNeverOverwritesAGoodFile) {
   EXPECT_EQ(few.exit_code, 2);
   EXPECT_NE(few.output.find("too few views"), std::string::npos) << few.output;
 
+  // A result that fails the quality gate (here: an RMS limit no real camera meets) is reported
+  // and not written.
+  std::string config =
+      autocal::readFile(std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml");
+  const std::string key = "max_rms_px: 1.0";
+  ASSERT_NE(config.find(key), std::string::npos);
+  config.replace(config.find(key), key.size(), "max_rms_px: 0.01");
+  autocal::writeFileAtomically(path("strict.yaml"), config);
+  const ToolRun gate = runTool("--images '" + kData + "/left[0-9]*.jpg' --config " +
+                               path("strict.yaml") + " --out " + path("good.yaml"));
+  EXPECT_EQ(gate.exit_code, 2);
+  EXPECT_NE(gate.output.find("fails the quality gate"), std::string::npos) << gate.output;
+  EXPECT_NE(gate.output.find("RMS reprojection error"), std::string::npos) << gate.output;
+  EXPECT_FALSE(fs::exists(path("good_views")));
+
   const ToolRun usage = runTool("--images x.jpg");
   EXPECT_EQ(usage.exit_code, 64);
   EXPECT_EQ(autocal::readFile(path("good.yaml")), "previous good calibration\n");

@@ -1,1 +1,35 @@
 # camera: core sources, nodes, commands and tests (included from CMakeLists.txt).
+target_sources(autocal_core PRIVATE
+  src/core/camera/chessboard.cpp
+  src/core/camera/view_selection.cpp
+  src/core/camera/calibration.cpp
+  src/core/camera/camera_config.cpp)
+
+# The offline tool: image folder or bag in, camera_info YAML out.
+add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
+target_link_libraries(calibrate_camera autocal_core)
+target_compile_options(calibrate_camera PRIVATE ${AUTOCAL_WARNINGS})
+target_compile_definitions(calibrate_camera PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+autocal_ros_target(calibrate_camera)
+
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_camera_real SOURCES test/camera/test_camera_real.cpp LIBS autocal_core)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_camera_synthetic SOURCES test/camera/test_camera_synthetic.cpp LIBS autocal_core)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # The command end to end (it writes bags, so it is a ROS-side test).
+  autocal_core_gtest(test_calibrate_camera_tool SOURCES test/camera/test_calibrate_camera_tool.cpp LIBS autocal_core)
+  autocal_ros_target(test_calibrate_camera_tool)
+  target_compile_definitions(test_calibrate_camera_tool PRIVATE AUTOCAL_TOOL="$<TARGET_FILE:calibrate_camera>")
+  add_dependencies(test_calibrate_camera_tool calibrate_camera)
+endif()
+
+# Detection speed benchmark (scripts/bench/camera.sh); ROS-free.
+add_executable(bench_camera_detection test/camera/bench_camera_detection.cpp)
+target_link_libraries(bench_camera_detection autocal_core)
+target_compile_options(bench_camera_detection PRIVATE ${AUTOCAL_WARNINGS})
+set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

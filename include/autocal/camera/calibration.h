@@ -1,0 +1,140 @@
+// Intrinsic calibration from kept chessboard views (Zhang's method through OpenCV, paper 000 §1):
+// pinhole + plumb_bob by default, rational_polynomial and fisheye (equidistant) as options.
+// Distortion terms the views cannot constrain are held fixed (chosen by held-out error), outlier
+// views and corners are dropped and the model refitted, and a quality gate decides whether a result
+// may replace a calibration file.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace autocal {
+namespace camera {
+
+enum class DistortionModel { kPlumbBob, kRationalPolynomial, kEquidistant };
+
+/// The ROS camera_info name: "plumb_bob", "rational_polynomial", "equidistant".
+std::string distortionModelName(DistortionModel model);
+/// Parses a ROS name (also "fisheye" for equidistant); throws ConfigError for others.
+DistortionModel parseDistortionModel(const std::string& name);
+
+struct CalibrationOptions {
+  DistortionModel model = DistortionModel::kPlumbBob;
+  cv::Size pattern_size{9, 6};
+  double square_size_m = 0.025;
+  /// Fewer views than this are refused.
+  int min_views = 6;
+  /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.
+  double min_param_spread = 0.05;
+  /// Hold fixed (at 0) the distortion terms the views cannot constrain. Term sets are nested,
+  /// simplest first (plumb_bob: k1 k2 | + p1 p2 | + k3).
+  bool select_distortion_terms = true;
+  /// kSignificance: start from all terms and drop the last group while none of its terms is
+  /// significant (|value| < min_term_significance · its standard deviation); 2–3 fits, fast.
+  /// kHoldout: the simplest set whose cross-validated held-out RMS is within selection_margin of
+  /// the best; slower (a fit per fold and set). Equidistant always uses kHoldout (OpenCV reports
+  /// no standard deviations for it).
+  enum class Selection { kSignificance, kHoldout };
+  Selection selection = Selection::kSignificance;
+  double min_term_significance = 3.0;
+  double selection_margin = 0.02;
+  /// Held-out folds for kHoldout (view i is held out in fold i mod folds); leave-one-out when
+  /// there are no more views than this.
+  int max_selection_folds = 6;
+  /// A corner whose residual exceeds max(outlier_corner_factor · median view RMS,
+  /// outlier_corner_min_px) is dropped; a view is dropped when more than
+  /// max_outlier_corner_fraction of its corners are, or when the RMS of its other corners exceeds
+  /// max(outlier_view_factor · median view RMS, outlier_view_min_px); then the model is refitted.
+  /// Rounds until nothing is dropped.
+  double outlier_view_factor = 3.0;
+  double outlier_view_min_px = 0.5;
+  double outlier_corner_factor = 4.0;
+  double outlier_corner_min_px = 1.0;
+  double max_outlier_corner_fraction = 0.2;
+  int max_outlier_rounds = 3;
+  /// Views kept after dropping outliers must stay at least this fraction of the input.
+  double min_kept_fraction = 0.5;
+};
+
+struct Intrinsics {
+  DistortionModel model = DistortionModel::kPlumbBob;
+  cv::Size image_size;
+  cv::Matx33d camera_matrix = cv::Matx33d::eye();
+  /// plumb_bob: k1 k2 p1 p2 k3; rational_polynomial: k1 k2 p1 p2 k3 k4 k5 k6; equidistant: k1..k4.
+  std::vector<double> distortion;
+  double fx() const { return camera_matrix(0, 0); }
+  double fy() const { return camera_matrix(1, 1); }
+  double cx() const { return camera_matrix(0, 2); }
+  double cy() const { return camera_matrix(1, 2); }
+};
+
+struct DroppedView {
+  int index = -1;  ///< index into the input views
+  std::string reason;
+};
+
+struct CalibrationResult {
+  Intrinsics intrinsics;
+  double rms_px = 0;                       ///< over all used corners
+  std::vector<int> used_views;             ///< indices into the input views
+  std::vector<double> per_view_rms_px;     ///< parallel to used_views
+  std::vector<DroppedView> dropped_views;  ///< outliers, with the reason
+  int dropped_corners = 0;
+  /// Standard deviations [fx fy cx cy, then the distortion terms in their order]; fixed terms 0.
+  /// Empty for equidistant (OpenCV does not report them).
+  std::vector<double> std_devs;
+  /// Which distortion terms were fitted, e.g. "k1 k2 p1 p2 (k3 fixed at 0)".
+  std::string fitted_terms;
+  /// Held-out RMS of the chosen term set during kHoldout selection [px] (0 otherwise).
+  double selection_holdout_rms_px = 0;
+  /// Why the terms were chosen, e.g. "k3 = 0.16 +- 0.13 (t 1.3 < 3): fixed".
+  std::string selection_reason;
+};
+
+/// Calibrates from views (corners in pattern order). Throws InputError for unusable corners (NaN,
+/// wrong count) and CalibrationError when the views cannot determine the model (too few, all
+/// alike, too many outliers), each with a message naming the reason.
+CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
+                            const cv::Size& image_size, const CalibrationOptions& options);
+
+/// Fits the pose of one view with given intrinsics and returns its reprojection RMS [px].
+double heldOutRmsPx(const std::vector<cv::Point2f>& corners, const Intrinsics& intrinsics,
+                    const cv::Size& pattern_size, double square_size_m);
+
+/// The board's corners in its own frame [m], in pattern order.
+std::vector<cv::Point3f> boardPoints(const cv::Size& pattern_size, double square_size_m);
+
+struct HoldoutEvaluation {
+  double mean_rms_px = 0;           ///< mean over folds of the held-out view's RMS
+  std::vector<double> fold_rms_px;  ///< per fold (= per held-out view)
+  std::vector<double> fold_fx_px;   ///< fx fitted in each fold
+  double fx_spread_px = 0;          ///< max − min of fold_fx_px
+};
+
+/// How the folds are fitted: autocal's calibrate(), or plain cv::calibrateCamera with default
+/// flags (k1 k2 p1 p2 k3, no outlier handling) as the baseline.
+enum class HoldoutMethod { kAutocal, kPlainOpenCv };
+
+/// Leave-one-out: for each view, fit on all the others, fit the held-out view's pose with those
+/// intrinsics and measure its reprojection RMS.
+HoldoutEvaluation leaveOneOut(const std::vector<std::vector<cv::Point2f>>& views,
+                              const cv::Size& image_size, const CalibrationOptions& options,
+                              HoldoutMethod method);
+
+struct QualityGateOptions {
+  double max_rms_px = 1.0;
+  double max_view_rms_px = 2.0;
+  int min_views = 8;
+  /// Largest standard deviation of fx (and of fy) relative to its value.
+  double max_focal_rel_std = 0.02;
+  /// Principal point within this fraction of the image size from the centre.
+  double max_principal_offset_ratio = 0.2;
+};
+
+/// Reasons the result may not be written; empty when it passes.
+std::vector<std::string> checkQuality(const CalibrationResult& result,
+                                      const QualityGateOptions& gate);
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,119 @@
+// View diversity (paper 000 §3.2, after ROS camera_calibration): each view of a board is described
+// by its position X, Y, its size and its skew in the image — as ROS camera_calibration does — plus
+// its distance and tilt to the camera, from a pose fitted with nominal intrinsics. A view is kept
+// only when it differs enough from every kept view; coverage tells when the views span enough.
+#pragma once
+
+#include <array>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "autocal/camera/chessboard.h"
+
+namespace autocal {
+namespace camera {
+
+/// Parameters of one view, each normalised to [0, 1].
+struct ViewParams {
+  double x = 0;         ///< board centre across the image (0 left, 1 right)
+  double y = 0;         ///< board centre down the image
+  double size = 0;      ///< sqrt(board area / image area)
+  double skew = 0;      ///< 2·|90° − angle at the top-left corner| / 90°, clipped to 1
+  double distance = 0;  ///< distance to the camera / ViewSelectionOptions::max_distance_m
+  double tilt = 0;      ///< angle between the board normal and the optical axis / 90°
+  double distance_m = 0;
+  double tilt_rad = 0;
+  std::array<double, 6> asArray() const { return {x, y, size, skew, distance, tilt}; }
+};
+
+struct ViewSelectionOptions {
+  cv::Size pattern_size{9, 6};
+  double square_size_m = 0.025;
+  /// A view is kept when the L1 distance of its parameters to every kept view is at least this
+  /// (ROS camera_calibration: 0.2 over X, Y, size and skew).
+  double min_novelty = 0.2;
+  /// Coverage goal: the spread (max − min) each parameter must reach, in its normalised unit
+  /// (ROS: X 0.7, Y 0.7, size 0.4, skew 0.5; autocal adds distance and tilt).
+  std::array<double, 6> goal_spread{{0.7, 0.7, 0.4, 0.5, 0.2, 0.3}};
+  /// Coverage is sufficient when every spread reaches its goal and at least min_views are kept,
+  /// or when max_views are kept (ROS: 40).
+  int min_views = 10;
+  int max_views = 40;
+  /// Nominal focal length for the distance/tilt pose, as a fraction of the image width [1].
+  double nominal_focal_width_ratio = 0.85;
+  /// Distance that maps to 1 in ViewParams::distance [m].
+  double max_distance_m = 3.0;
+  /// Views whose edges are wider than this are refused as blurred [px] (see edgeWidthPx: a
+  /// perfectly sharp edge measures 2 px, OpenCV's sample photos 2.6–3.4 px, a Gaussian blur of
+  /// sigma 3 px more than 6 px).
+  double max_edge_width_px = 5.0;
+};
+
+/// The parameters of a board view in an image of the given size.
+ViewParams computeViewParams(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
+                             const ViewSelectionOptions& options);
+
+struct Coverage {
+  std::array<double, 6> spread{};    ///< max − min of each parameter over the kept views
+  std::array<double, 6> progress{};  ///< spread / goal, clipped to 1
+  int views = 0;
+  bool sufficient = false;
+  /// One line, e.g. "X 0.62 Y 1.00 size 0.40 skew 0.10 dist 0.30 tilt 0.55, 12 views".
+  std::string summary() const;
+};
+
+/// A kept view: refined corners of one board, and what it was judged on.
+struct CalibrationView {
+  std::vector<cv::Point2f> corners;
+  ViewParams params;
+  double edge_width_px = 0;
+  std::string source;  ///< file name or "bag:<topic>@<stamp>"
+  int frame_index = -1;
+};
+
+/// What happened to one board found in a frame.
+struct ViewDecision {
+  bool kept = false;
+  std::string reason;  ///< why it was refused, or "kept"
+  ViewParams params;
+  double edge_width_px = 0;
+  std::vector<cv::Point2f> corners;
+};
+
+struct FrameResult {
+  int boards_found = 0;
+  std::vector<ViewDecision> decisions;
+  bool any_kept() const;
+};
+
+/// Takes frames one at a time (from a robot turning past boards, or from files) and keeps the
+/// views worth calibrating on. Detection is the fast one; only kept views are refined.
+class ViewCollector {
+ public:
+  ViewCollector(const ChessboardDetectorOptions& detector, const ViewSelectionOptions& selection);
+
+  /// Detects boards in `image` (8-bit, grey or colour) and keeps the views that are sharp and
+  /// new. Throws InputError when the image is empty or of another size than the first one.
+  FrameResult addFrame(const cv::Mat& image, const std::string& source);
+  /// The same for corners found elsewhere (tests, replays): judged but not re-detected.
+  ViewDecision addView(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
+                       double edge_width_px, const std::string& source);
+
+  const std::vector<CalibrationView>& views() const { return views_; }
+  Coverage coverage() const;
+  const cv::Size& imageSize() const { return image_size_; }
+  int frames() const { return frames_; }
+
+ private:
+  ViewDecision judge(const std::vector<cv::Point2f>& corners, double edge_width_px);
+
+  ChessboardDetectorOptions detector_;
+  ViewSelectionOptions selection_;
+  cv::Size image_size_;
+  std::vector<CalibrationView> views_;
+  int frames_ = 0;
+};
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,551 @@
+#include "autocal/camera/calibration.h"
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <opencv2/calib3d.hpp>
+#include <optional>
+
+#include "autocal/camera/view_selection.h"
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace camera {
+
+std::string distortionModelName(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kPlumbBob:
+      return "plumb_bob";
+    case DistortionModel::kRationalPolynomial:
+      return "rational_polynomial";
+    case DistortionModel::kEquidistant:
+      return "equidistant";
+  }
+  return "unknown";
+}
+
+DistortionModel parseDistortionModel(const std::string& name) {
+  if (name == "plumb_bob") return DistortionModel::kPlumbBob;
+  if (name == "rational_polynomial" || name == "rational")
+    return DistortionModel::kRationalPolynomial;
+  if (name == "equidistant" || name == "fisheye") return DistortionModel::kEquidistant;
+  throw ConfigError("unknown distortion model '" + name +
+                    "' (expected plumb_bob, rational_polynomial or equidistant)");
+}
+
+std::vector<cv::Point3f> boardPoints(const cv::Size& pattern_size, double square_size_m) {
+  std::vector<cv::Point3f> points;
+  for (int r = 0; r < pattern_size.height; ++r) {
+    for (int c = 0; c < pattern_size.width; ++c) {
+      points.emplace_back(static_cast<float>(c * square_size_m),
+                          static_cast<float>(r * square_size_m), 0.0f);
+    }
+  }
+  return points;
+}
+
+namespace {
+
+using Points2 = std::vector<cv::Point2f>;
+using Points3 = std::vector<cv::Point3f>;
+
+bool isFisheye(DistortionModel m) { return m == DistortionModel::kEquidistant; }
+
+// A set of distortion terms to fit, simplest first (the others are held at 0).
+struct TermSet {
+  std::string name;
+  int flags;
+  std::vector<int> added;  // distortion indices this set fits beyond the previous one
+};
+
+std::vector<TermSet> termSets(DistortionModel model) {
+  switch (model) {
+    case DistortionModel::kPlumbBob:
+      return {
+          {"k1 k2 (p1 p2 k3 fixed at 0)", cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3, {0, 1}},
+          {"k1 k2 p1 p2 (k3 fixed at 0)", cv::CALIB_FIX_K3, {2, 3}},
+          {"k1 k2 p1 p2 k3", 0, {4}}};
+    case DistortionModel::kRationalPolynomial: {
+      const int r = cv::CALIB_RATIONAL_MODEL;
+      return {{"k1 k2 p1 p2 (k3..k6 fixed at 0)",
+               r | cv::CALIB_FIX_K3 | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6,
+               {0, 1, 2, 3}},
+              {"k1 k2 p1 p2 k3 (k4..k6 fixed at 0)",
+               r | cv::CALIB_FIX_K4 | cv::CALIB_FIX_K5 | cv::CALIB_FIX_K6,
+               {4}},
+              {"k1 k2 p1 p2 k3 k4 k5 k6", r, {5, 6, 7}}};
+    }
+    case DistortionModel::kEquidistant: {
+      const int f = cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW;
+      return {{"k1 k2 (k3 k4 fixed at 0)",
+               f | cv::fisheye::CALIB_FIX_K3 | cv::fisheye::CALIB_FIX_K4,
+               {0, 1}},
+              {"k1 k2 k3 (k4 fixed at 0)", f | cv::fisheye::CALIB_FIX_K4, {2}},
+              {"k1 k2 k3 k4", f, {3}}};
+    }
+  }
+  return {};
+}
+
+struct Fit {
+  Intrinsics intrinsics;
+  double rms_px = 0;
+  std::vector<double> std_devs;
+  std::vector<cv::Mat> rvecs, tvecs;
+};
+
+size_t distortionCount(DistortionModel m) {
+  return m == DistortionModel::kPlumbBob ? 5 : m == DistortionModel::kRationalPolynomial ? 8 : 4;
+}
+
+Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const cv::Size& size,
+        DistortionModel model, int flags, const Intrinsics* guess = nullptr,
+        bool opencv_default_criteria = false) {
+  Fit f;
+  f.intrinsics.model = model;
+  f.intrinsics.image_size = size;
+  cv::Mat k, d;
+  if (guess) {
+    // Warm start (folds of a cross-validation start from the fit on all views): same optimum,
+    // far fewer iterations.
+    k = cv::Mat(guess->camera_matrix).clone();
+    d = cv::Mat(guess->distortion, true).reshape(1, 1);
+    flags |= isFisheye(model) ? static_cast<int>(cv::fisheye::CALIB_USE_INTRINSIC_GUESS)
+                              : static_cast<int>(cv::CALIB_USE_INTRINSIC_GUESS);
+  }
+  // OpenCV's default (30 iterations, DBL_EPSILON) for the plain baseline; otherwise stop at a
+  // relative change of 1e-7 (fx moves by under 1e-4 px), which is several times faster.
+  const cv::TermCriteria criteria =
+      opencv_default_criteria
+          ? cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, DBL_EPSILON)
+          : cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-7);
+  try {
+    if (isFisheye(model)) {
+      if (d.empty()) d = cv::Mat::zeros(4, 1, CV_64F);
+      d = d.reshape(1, 4);
+      std::vector<std::vector<cv::Point3d>> obj_d;
+      std::vector<std::vector<cv::Point2d>> img_d;
+      for (const auto& o : obj) obj_d.emplace_back(o.begin(), o.end());
+      for (const auto& i : img) img_d.emplace_back(i.begin(), i.end());
+      f.rms_px =
+          cv::fisheye::calibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+    } else {
+      cv::Mat std_int, std_ext, per_view;
+      f.rms_px = cv::calibrateCamera(obj, img, size, k, d, f.rvecs, f.tvecs, std_int, std_ext,
+                                     per_view, flags, criteria);
+      f.std_devs = {std_int.at<double>(0), std_int.at<double>(1), std_int.at<double>(2),
+                    std_int.at<double>(3)};
+      for (size_t i = 0; i < distortionCount(model); ++i)
+        f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
+    }
+  } catch (const cv::Exception& e) {
+    throw CalibrationError(std::string("OpenCV could not fit the model: ") + e.what());
+  }
+  f.intrinsics.camera_matrix = cv::Matx33d(k);
+  d = d.reshape(1, 1);
+  f.intrinsics.distortion.assign(distortionCount(model), 0.0);
+  for (int i = 0; i < std::min<int>(d.cols, static_cast<int>(distortionCount(model))); ++i) {
+    f.intrinsics.distortion[static_cast<size_t>(i)] = d.at<double>(i);
+  }
+  for (int i = 0; i < 9; ++i) {
+    if (!std::isfinite(f.intrinsics.camera_matrix.val[i])) {
+      throw CalibrationError("the fit diverged (non-finite camera matrix)");
+    }
+  }
+  return f;
+}
+
+Points2 project(const Points3& obj, const cv::Mat& rvec, const cv::Mat& tvec,
+                const Intrinsics& in) {
+  Points2 out;
+  if (isFisheye(in.model)) {
+    cv::fisheye::projectPoints(obj, out, rvec, tvec, cv::Mat(in.camera_matrix),
+                               cv::Mat(in.distortion));
+  } else {
+    cv::projectPoints(obj, rvec, tvec, cv::Mat(in.camera_matrix), cv::Mat(in.distortion), out);
+  }
+  return out;
+}
+
+double rms(const Points2& a, const Points2& b) {
+  double s = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const cv::Point2f d = a[i] - b[i];
+    s += d.x * d.x + d.y * d.y;
+  }
+  return a.empty() ? 0 : std::sqrt(s / static_cast<double>(a.size()));
+}
+
+double heldOut(const Points3& obj, const Points2& img, const Intrinsics& in) {
+  cv::Mat rvec, tvec;
+  if (isFisheye(in.model)) {
+    Points2 normalised;
+    cv::fisheye::undistortPoints(img, normalised, cv::Mat(in.camera_matrix),
+                                 cv::Mat(in.distortion));
+    cv::solvePnP(obj, normalised, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec);
+  } else {
+    cv::solvePnP(obj, img, cv::Mat(in.camera_matrix), cv::Mat(in.distortion), rvec, tvec);
+  }
+  return rms(project(obj, rvec, tvec, in), img);
+}
+
+// Mean held-out RMS over folds (leave-one-out up to max_folds views).
+double crossValidate(const std::vector<Points3>& obj, const std::vector<Points2>& img,
+                     const cv::Size& size, DistortionModel model, int flags, int max_folds) {
+  const int n = static_cast<int>(obj.size());
+  const int folds = std::min(n, max_folds);
+  const Fit all = fit(obj, img, size, model, flags);
+  double sum = 0;
+  int count = 0;
+  for (int fold = 0; fold < folds; ++fold) {
+    std::vector<Points3> o;
+    std::vector<Points2> i;
+    for (int v = 0; v < n; ++v) {
+      if (v % folds == fold) continue;
+      o.push_back(obj[static_cast<size_t>(v)]);
+      i.push_back(img[static_cast<size_t>(v)]);
+    }
+    const Fit f = fit(o, i, size, model, flags, &all.intrinsics);
+    for (int v = fold; v < n; v += folds) {
+      sum += heldOut(obj[static_cast<size_t>(v)], img[static_cast<size_t>(v)], f.intrinsics);
+      ++count;
+    }
+  }
+  return sum / std::max(1, count);
+}
+
+std::string fmt(const char* format, double a, double b = 0, double c = 0) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, format, a, b, c);
+  return buf;
+}
+
+}  // namespace
+
+double heldOutRmsPx(const std::vector<cv::Point2f>& corners, const Intrinsics& intrinsics,
+                    const cv::Size& pattern_size, double square_size_m) {
+  return heldOut(boardPoints(pattern_size, square_size_m), corners, intrinsics);
+}
+
+CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
+                            const cv::Size& image_size, const CalibrationOptions& options) {
+  const size_t n_corners = static_cast<size_t>(options.pattern_size.area());
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (views[v].size() != n_corners) {
+      throw InputError("view " + std::to_string(v) + " has " + std::to_string(views[v].size()) +
+                       " corners, the board has " + std::to_string(n_corners));
+    }
+    for (size_t c = 0; c < views[v].size(); ++c) {
+      if (!std::isfinite(views[v][c].x) || !std::isfinite(views[v][c].y)) {
+        throw InputError("view " + std::to_string(v) + ": corner " + std::to_string(c) +
+                         " is NaN or infinite");
+      }
+    }
+  }
+  if (static_cast<int>(views.size()) < options.min_views) {
+    throw CalibrationError("too few views: " + std::to_string(views.size()) + " < " +
+                           std::to_string(options.min_views) + " (show the board in more poses)");
+  }
+  // All views alike (one pose seen again and again): the focal length and the distance along
+  // the optical axis cannot be told apart, whatever the fit reports.
+  {
+    ViewSelectionOptions sel;
+    sel.pattern_size = options.pattern_size;
+    sel.square_size_m = options.square_size_m;
+    std::array<double, 6> lo, hi;
+    lo.fill(1e9);
+    hi.fill(-1e9);
+    for (const auto& v : views) {
+      const auto a = computeViewParams(v, image_size, sel).asArray();
+      for (size_t k = 0; k < 6; ++k) {
+        lo[k] = std::min(lo[k], a[k]);
+        hi[k] = std::max(hi[k], a[k]);
+      }
+    }
+    const double spread_xy = std::max(hi[0] - lo[0], hi[1] - lo[1]);
+    const double spread_size = hi[2] - lo[2], spread_skew = hi[3] - lo[3],
+                 spread_tilt = hi[5] - lo[5];
+    if (std::max({spread_xy, spread_size, spread_skew, spread_tilt}) < options.min_param_spread) {
+      throw CalibrationError(
+          fmt("views all alike: position spread %.3f, size spread %.3f, skew spread %.3f",
+              spread_xy, spread_size, spread_skew) +
+          fmt(", tilt spread %.3f (< %.3f each); move or tilt the board between views", spread_tilt,
+              options.min_param_spread));
+    }
+  }
+
+  const Points3 board = boardPoints(options.pattern_size, options.square_size_m);
+  const std::vector<TermSet> sets = termSets(options.model);
+  // Outliers are judged with the middle term set: flexible enough for real lenses, too stiff to
+  // absorb a bad view.
+  const TermSet& judge_set = sets[1];  // judge_level below
+
+  std::vector<int> active(views.size());
+  std::iota(active.begin(), active.end(), 0);
+  std::vector<std::vector<char>> keep(views.size(), std::vector<char>(n_corners, 1));
+  CalibrationResult result;
+  auto gather = [&](std::vector<Points3>& obj, std::vector<Points2>& img) {
+    obj.clear();
+    img.clear();
+    for (int v : active) {
+      Points3 o;
+      Points2 i;
+      for (size_t c = 0; c < n_corners; ++c) {
+        if (!keep[static_cast<size_t>(v)][c]) continue;
+        o.push_back(board[c]);
+        i.push_back(views[static_cast<size_t>(v)][c]);
+      }
+      obj.push_back(o);
+      img.push_back(i);
+    }
+  };
+  std::vector<Points3> obj;
+  std::vector<Points2> img;
+  const size_t min_active =
+      std::max<size_t>(static_cast<size_t>(options.min_views),
+                       static_cast<size_t>(std::ceil(options.min_kept_fraction *
+                                                     static_cast<double>(views.size()))));
+  // The judging fit of the last round, when that round dropped nothing: it is then the fit of
+  // the judging term set on the final data, and the term selection below reuses it.
+  std::optional<Fit> judge_fit;
+  const size_t judge_level = 1;
+  for (int round = 0; round < options.max_outlier_rounds; ++round) {
+    gather(obj, img);
+    const Fit f = fit(obj, img, image_size, options.model, judge_set.flags);
+    judge_fit.reset();
+    // Residuals of every corner; a corner is an outlier beyond a limit set by the median view
+    // (robust to the outliers themselves). A view is an outlier when too many of its corners
+    // are, or when its inlier corners still fit badly (a wrong match, a moved board).
+    std::vector<Points2> projected(active.size());
+    std::vector<std::vector<double>> residual(active.size());
+    std::vector<double> all_rms(active.size());
+    for (size_t a = 0; a < active.size(); ++a) {
+      projected[a] = project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics);
+      all_rms[a] = rms(projected[a], img[a]);
+      for (size_t j = 0; j < img[a].size(); ++j)
+        residual[a].push_back(cv::norm(projected[a][j] - img[a][j]));
+    }
+    std::vector<double> sorted = all_rms;
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double median = sorted[sorted.size() / 2];
+    const double view_limit =
+        std::max(options.outlier_view_factor * median, options.outlier_view_min_px);
+    const double corner_limit =
+        std::max(options.outlier_corner_factor * median, options.outlier_corner_min_px);
+    std::vector<double> inlier_rms(active.size());
+    std::vector<double> outlier_fraction(active.size());
+    for (size_t a = 0; a < active.size(); ++a) {
+      double s = 0;
+      int inliers = 0;
+      for (double r : residual[a]) {
+        if (r <= corner_limit) {
+          s += r * r;
+          ++inliers;
+        }
+      }
+      inlier_rms[a] = inliers ? std::sqrt(s / inliers) : std::numeric_limits<double>::infinity();
+      outlier_fraction[a] =
+          1.0 - static_cast<double>(inliers) / static_cast<double>(residual[a].size());
+    }
+    auto badness = [&](size_t a) {
+      return outlier_fraction[a] > options.max_outlier_corner_fraction ? 1e9 + outlier_fraction[a]
+                                                                       : inlier_rms[a];
+    };
+    // Worst views first, never below the minimum number of views.
+    std::vector<size_t> order(active.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return badness(a) > badness(b); });
+    std::vector<char> drop(active.size(), 0);
+    size_t remaining = active.size();
+    bool changed = false;
+    for (size_t a : order) {
+      const bool too_many = outlier_fraction[a] > options.max_outlier_corner_fraction;
+      if (!too_many && inlier_rms[a] <= view_limit) break;
+      if (remaining <= min_active) {
+        throw CalibrationError(
+            fmt("too many outlier views: view RMS up to %.2f px against a median of %.2f px",
+                all_rms[order[0]], median) +
+            "; " + std::to_string(active.size()) + " views left, at least " +
+            std::to_string(min_active) + " needed");
+      }
+      drop[a] = 1;
+      --remaining;
+      result.dropped_views.push_back(
+          {active[a], too_many
+                          ? fmt("outlier view: %.0f %% of its corners off by more than %.2f px",
+                                100 * outlier_fraction[a], corner_limit)
+                          : fmt("outlier view: RMS %.2f px > %.2f px (%.1f x median)",
+                                inlier_rms[a], view_limit, options.outlier_view_factor)});
+      changed = true;
+    }
+    for (size_t a = 0; a < active.size(); ++a) {
+      if (drop[a]) continue;
+      // Indices of kept corners of this view, in order, to map residuals back.
+      const int v = active[a];
+      size_t j = 0;
+      for (size_t c = 0; c < n_corners; ++c) {
+        if (!keep[static_cast<size_t>(v)][c]) continue;
+        if (residual[a][j] > corner_limit) {
+          keep[static_cast<size_t>(v)][c] = 0;
+          ++result.dropped_corners;
+          changed = true;
+        }
+        ++j;
+      }
+    }
+    std::vector<int> next;
+    for (size_t a = 0; a < active.size(); ++a) {
+      if (!drop[a]) next.push_back(active[a]);
+    }
+    active = next;
+    if (!changed) {
+      judge_fit = f;
+      break;
+    }
+  }
+  gather(obj, img);
+
+  TermSet chosen = sets.back();
+  static const char* kTermNames[3][8] = {{"k1", "k2", "p1", "p2", "k3", "", "", ""},
+                                         {"k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"},
+                                         {"k1", "k2", "k3", "k4", "", "", "", ""}};
+  const auto term_name = [&](int i) {
+    return std::string(kTermNames[static_cast<int>(options.model)][i]);
+  };
+  std::optional<Fit> final_fit;
+  if (options.select_distortion_terms &&
+      options.selection == CalibrationOptions::Selection::kSignificance &&
+      !isFisheye(options.model)) {
+    // Drop the most complex group of terms while none of its terms stands out of its own
+    // uncertainty: such a term fits the noise of these views, not the lens (issue 3: ROS's fits
+    // swing by 15 px in fx between folds of 13 photos).
+    size_t level = sets.size() - 1;
+    Fit f = fit(obj, img, image_size, options.model, sets[level].flags);
+    while (level > 0) {
+      bool significant = false;
+      std::string why;
+      for (int i : sets[level].added) {
+        const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
+        const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
+        const double t =
+            sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
+        significant = significant || t >= options.min_term_significance;
+        why += (why.empty() ? "" : ", ") + term_name(i) +
+               fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+      }
+      result.selection_reason +=
+          (result.selection_reason.empty() ? "" : "; ") + why +
+          (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
+      if (significant) break;
+      --level;
+      f = (level == judge_level && judge_fit)
+              ? *judge_fit
+              : fit(obj, img, image_size, options.model, sets[level].flags);
+    }
+    chosen = sets[level];
+    final_fit = f;
+  } else if (options.select_distortion_terms) {
+    // The simplest term set whose held-out error is within the margin of the best one. A term
+    // the views cannot constrain lowers the training RMS and raises the error on unseen views.
+    std::vector<double> scores;
+    for (const TermSet& s : sets) {
+      scores.push_back(
+          crossValidate(obj, img, image_size, options.model, s.flags, options.max_selection_folds));
+    }
+    const double best = *std::min_element(scores.begin(), scores.end());
+    for (size_t i = 0; i < sets.size(); ++i) {
+      result.selection_reason +=
+          (i ? "; " : "") + sets[i].name + fmt(": held-out %.4f px", scores[i]);
+    }
+    for (size_t i = 0; i < sets.size(); ++i) {
+      if (scores[i] <= best * (1 + options.selection_margin)) {
+        chosen = sets[i];
+        result.selection_holdout_rms_px = scores[i];
+        break;
+      }
+    }
+  }
+  const Fit f = final_fit ? *final_fit : fit(obj, img, image_size, options.model, chosen.flags);
+  result.intrinsics = f.intrinsics;
+  result.rms_px = f.rms_px;
+  result.std_devs = f.std_devs;
+  result.fitted_terms = chosen.name;
+  result.used_views = active;
+  for (size_t a = 0; a < active.size(); ++a) {
+    result.per_view_rms_px.push_back(
+        rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
+  }
+  return result;
+}
+
+HoldoutEvaluation leaveOneOut(const std::vector<std::vector<cv::Point2f>>& views,
+                              const cv::Size& image_size, const CalibrationOptions& options,
+                              HoldoutMethod method) {
+  HoldoutEvaluation e;
+  const Points3 board = boardPoints(options.pattern_size, options.square_size_m);
+  for (size_t held = 0; held < views.size(); ++held) {
+    std::vector<Points2> train;
+    for (size_t v = 0; v < views.size(); ++v) {
+      if (v != held) train.push_back(views[v]);
+    }
+    Intrinsics in;
+    if (method == HoldoutMethod::kAutocal) {
+      in = calibrate(train, image_size, options).intrinsics;
+    } else {
+      const std::vector<Points3> obj(train.size(), board);
+      in = fit(obj, train, image_size, DistortionModel::kPlumbBob, 0, nullptr, true).intrinsics;
+    }
+    e.fold_rms_px.push_back(heldOut(board, views[held], in));
+    e.fold_fx_px.push_back(in.fx());
+  }
+  if (!views.empty()) {
+    e.mean_rms_px = std::accumulate(e.fold_rms_px.begin(), e.fold_rms_px.end(), 0.0) /
+                    static_cast<double>(views.size());
+    const auto mm = std::minmax_element(e.fold_fx_px.begin(), e.fold_fx_px.end());
+    e.fx_spread_px = *mm.second - *mm.first;
+  }
+  return e;
+}
+
+std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityGateOptions& gate) {
+  std::vector<std::string> reasons;
+  if (!(r.rms_px <= gate.max_rms_px)) {
+    reasons.push_back(fmt("RMS reprojection error %.3f px > %.3f px", r.rms_px, gate.max_rms_px));
+  }
+  for (size_t i = 0; i < r.per_view_rms_px.size(); ++i) {
+    if (!(r.per_view_rms_px[i] <= gate.max_view_rms_px)) {
+      reasons.push_back("view " + std::to_string(r.used_views[i]) +
+                        fmt(": RMS %.3f px > %.3f px", r.per_view_rms_px[i], gate.max_view_rms_px));
+    }
+  }
+  if (static_cast<int>(r.used_views.size()) < gate.min_views) {
+    reasons.push_back("only " + std::to_string(r.used_views.size()) + " views used, need " +
+                      std::to_string(gate.min_views));
+  }
+  if (r.std_devs.size() >= 2) {
+    const double rel =
+        std::max(r.std_devs[0] / r.intrinsics.fx(), r.std_devs[1] / r.intrinsics.fy());
+    if (!(rel <= gate.max_focal_rel_std)) {
+      reasons.push_back(fmt("focal length uncertain: std dev %.2f %% > %.2f %%", 100 * rel,
+                            100 * gate.max_focal_rel_std));
+    }
+  }
+  const cv::Size s = r.intrinsics.image_size;
+  const double dx = std::abs(r.intrinsics.cx() - s.width / 2.0) / s.width;
+  const double dy = std::abs(r.intrinsics.cy() - s.height / 2.0) / s.height;
+  if (!(std::max(dx, dy) <= gate.max_principal_offset_ratio)) {
+    reasons.push_back(fmt("principal point (%.1f, %.1f) px too far from the image centre",
+                          r.intrinsics.cx(), r.intrinsics.cy()) +
+                      fmt(" (> %.0f %% of the image size)", 100 * gate.max_principal_offset_ratio));
+  }
+  if (!(r.intrinsics.fx() > 0 && r.intrinsics.fy() > 0))
+    reasons.push_back("focal length not positive");
+  return reasons;
+}
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,149 @@
+#include "autocal/camera/camera_config.h"
+
+#include <cstdio>
+
+#include "autocal/errors.h"
+#include "autocal/io/yaml_reader.h"
+
+namespace autocal {
+namespace camera {
+
+void CameraCalibrationConfig::setBoard(const cv::Size& pattern_size, double square_size_m) {
+  detector.pattern_size = pattern_size;
+  selection.pattern_size = pattern_size;
+  calibration.pattern_size = pattern_size;
+  selection.square_size_m = square_size_m;
+  calibration.square_size_m = square_size_m;
+}
+
+cv::Size parseBoardSize(const std::string& text) {
+  int cols = 0, rows = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &cols, &x, &rows, &extra) != 3 ||
+      (x != 'x' && x != 'X') || cols < 3 || rows < 3) {
+    throw ConfigError("board '" + text +
+                      "': expected inner corners as COLSxROWS, e.g. 9x6 (each >= 3)");
+  }
+  if (cols == rows) {
+    throw ConfigError("board '" + text +
+                      "': a square board's orientation is ambiguous; use one with "
+                      "different numbers of inner corners per row and column");
+  }
+  return cv::Size(cols, rows);
+}
+
+void CameraCalibrationConfig::validate() const {
+  auto check = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) throw ConfigError(key + ": " + what);
+  };
+  check(calibration.square_size_m > 0, "board.square_size_m", "must be > 0");
+  check(detector.max_boards >= 1, "detection.max_boards", "must be >= 1");
+  check(detector.refine_window_ratio > 0 && detector.refine_window_ratio < 0.5,
+        "detection.refine_window_ratio",
+        "must be in (0, 0.5): the window must not reach the next corner");
+  check(detector.refine_min_half_window_px >= 1 &&
+            detector.refine_max_half_window_px >= detector.refine_min_half_window_px,
+        "detection.refine_max_half_window_px", "must be >= refine_min_half_window_px >= 1");
+  check(selection.min_novelty >= 0, "view_selection.min_novelty", "must be >= 0");
+  check(selection.max_views >= selection.min_views && selection.min_views >= 1,
+        "view_selection.max_views", "must be >= min_views >= 1");
+  check(selection.max_edge_width_px > 0, "view_selection.max_edge_width_px", "must be > 0");
+  check(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio",
+        "must be > 0");
+  check(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
+  check(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
+  check(calibration.min_term_significance > 0, "calibration.min_term_significance", "must be > 0");
+  check(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
+  check(calibration.max_selection_folds >= 2, "calibration.max_selection_folds", "must be >= 2");
+  check(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor", "must be > 1");
+  check(calibration.outlier_corner_factor > 1, "calibration.outlier_corner_factor", "must be > 1");
+  check(calibration.max_outlier_corner_fraction > 0 && calibration.max_outlier_corner_fraction < 1,
+        "calibration.max_outlier_corner_fraction", "must be in (0, 1)");
+  check(calibration.max_outlier_rounds >= 1, "calibration.max_outlier_rounds", "must be >= 1");
+  check(calibration.min_kept_fraction > 0 && calibration.min_kept_fraction <= 1,
+        "calibration.min_kept_fraction", "must be in (0, 1]");
+  check(quality_gate.max_rms_px > 0, "quality_gate.max_rms_px", "must be > 0");
+  check(quality_gate.max_view_rms_px > 0, "quality_gate.max_view_rms_px", "must be > 0");
+  check(quality_gate.min_views >= calibration.min_views, "quality_gate.min_views",
+        "must be >= calibration.min_views");
+}
+
+CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
+  YamlMap root = YamlMap::loadFile(path);
+  CameraCalibrationConfig c;
+  {
+    YamlMap b = root.map("board");
+    c.setBoard(parseBoardSize(b.required<std::string>("inner_corners")),
+               b.required<double>("square_size_m"));
+    b.finish();
+  }
+  {
+    YamlMap d = root.map("detection");
+    c.detector.max_boards = d.required<int>("max_boards");
+    c.detector.fast_check = d.required<bool>("fast_check");
+    c.detector.half_resolution_precheck = d.required<bool>("half_resolution_precheck");
+    c.detector.refine_window_ratio = d.required<double>("refine_window_ratio");
+    c.detector.refine_min_half_window_px = d.required<int>("refine_min_half_window_px");
+    c.detector.refine_max_half_window_px = d.required<int>("refine_max_half_window_px");
+    d.finish();
+  }
+  {
+    YamlMap s = root.map("view_selection");
+    c.selection.min_novelty = s.required<double>("min_novelty");
+    const std::vector<double> goal = s.required<std::vector<double>>("goal_spread");
+    if (goal.size() != 6)
+      s.fail("goal_spread", "expected 6 numbers: x, y, size, skew, distance, tilt");
+    for (size_t i = 0; i < 6; ++i) c.selection.goal_spread[i] = goal[i];
+    c.selection.min_views = s.required<int>("min_views");
+    c.selection.max_views = s.required<int>("max_views");
+    c.selection.nominal_focal_width_ratio = s.required<double>("nominal_focal_width_ratio");
+    c.selection.max_distance_m = s.required<double>("max_distance_m");
+    c.selection.max_edge_width_px = s.required<double>("max_edge_width_px");
+    s.finish();
+  }
+  {
+    YamlMap k = root.map("calibration");
+    c.calibration.model = parseDistortionModel(k.required<std::string>("distortion_model"));
+    c.calibration.min_views = k.required<int>("min_views");
+    c.calibration.min_param_spread = k.required<double>("min_param_spread");
+    c.calibration.select_distortion_terms = k.required<bool>("select_distortion_terms");
+    const std::string selection = k.required<std::string>("selection");
+    if (selection == "significance") {
+      c.calibration.selection = CalibrationOptions::Selection::kSignificance;
+    } else if (selection == "holdout") {
+      c.calibration.selection = CalibrationOptions::Selection::kHoldout;
+    } else {
+      k.fail("selection", "expected significance or holdout, got '" + selection + "'");
+    }
+    c.calibration.min_term_significance = k.required<double>("min_term_significance");
+    c.calibration.selection_margin = k.required<double>("selection_margin");
+    c.calibration.max_selection_folds = k.required<int>("max_selection_folds");
+    c.calibration.outlier_view_factor = k.required<double>("outlier_view_factor");
+    c.calibration.outlier_view_min_px = k.required<double>("outlier_view_min_px");
+    c.calibration.outlier_corner_factor = k.required<double>("outlier_corner_factor");
+    c.calibration.outlier_corner_min_px = k.required<double>("outlier_corner_min_px");
+    c.calibration.max_outlier_corner_fraction = k.required<double>("max_outlier_corner_fraction");
+    c.calibration.max_outlier_rounds = k.required<int>("max_outlier_rounds");
+    c.calibration.min_kept_fraction = k.required<double>("min_kept_fraction");
+    k.finish();
+  }
+  {
+    YamlMap q = root.map("quality_gate");
+    c.quality_gate.max_rms_px = q.required<double>("max_rms_px");
+    c.quality_gate.max_view_rms_px = q.required<double>("max_view_rms_px");
+    c.quality_gate.min_views = q.required<int>("min_views");
+    c.quality_gate.max_focal_rel_std = q.required<double>("max_focal_rel_std");
+    c.quality_gate.max_principal_offset_ratio = q.required<double>("max_principal_offset_ratio");
+    q.finish();
+  }
+  root.finish();
+  try {
+    c.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+  return c;
+}
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,209 @@
+#include "autocal/camera/view_selection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace camera {
+
+namespace {
+double angleAt(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
+  const cv::Point2d ab = a - b, cb = c - b;
+  const double cosine = ab.dot(cb) / (cv::norm(ab) * cv::norm(cb));
+  return std::acos(std::clamp(cosine, -1.0, 1.0));
+}
+}  // namespace
+
+ViewParams computeViewParams(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
+                             const ViewSelectionOptions& options) {
+  const int w = options.pattern_size.width, h = options.pattern_size.height;
+  const cv::Point2d up_left = corners[0], up_right = corners[w - 1],
+                    down_right = corners[h * w - 1], down_left = corners[(h - 1) * w];
+  // Same definitions as ROS camera_calibration's get_parameters().
+  const cv::Point2d a = up_right - up_left, b = down_right - up_right, c = down_left - down_right;
+  const double area = std::abs((a.x * b.y - a.y * b.x) + (b.x * c.y - b.y * c.x)) / 2.0;
+  const double border = std::sqrt(area);
+  cv::Point2d mean(0, 0);
+  for (const auto& p : corners) mean += cv::Point2d(p);
+  mean *= 1.0 / static_cast<double>(corners.size());
+  ViewParams v;
+  v.x = std::clamp((mean.x - border / 2) / (image_size.width - border), 0.0, 1.0);
+  v.y = std::clamp((mean.y - border / 2) / (image_size.height - border), 0.0, 1.0);
+  v.size = std::sqrt(area / (static_cast<double>(image_size.width) * image_size.height));
+  v.skew = std::min(1.0, 2.0 * std::abs(M_PI / 2 - angleAt(up_left, up_right, down_right)));
+
+  // Distance and tilt from a pose fitted with nominal intrinsics: rough, but the ordering of
+  // views by distance and tilt does not need the true focal length.
+  const double f = options.nominal_focal_width_ratio * image_size.width;
+  const cv::Matx33d k(f, 0, image_size.width / 2.0, 0, f, image_size.height / 2.0, 0, 0, 1);
+  cv::Vec3d rvec, tvec;
+  if (cv::solvePnP(boardPoints(options.pattern_size, options.square_size_m), corners, k,
+                   cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE)) {
+    cv::Matx33d r;
+    cv::Rodrigues(rvec, r);
+    v.distance_m = cv::norm(tvec);
+    v.tilt_rad = std::acos(std::min(1.0, std::abs(r(2, 2))));
+    v.distance = std::clamp(v.distance_m / options.max_distance_m, 0.0, 1.0);
+    v.tilt = std::clamp(v.tilt_rad / (M_PI / 2), 0.0, 1.0);
+  }
+  return v;
+}
+
+std::string Coverage::summary() const {
+  static const char* names[6] = {"X", "Y", "size", "skew", "dist", "tilt"};
+  std::string s;
+  char buf[64];
+  for (int i = 0; i < 6; ++i) {
+    std::snprintf(buf, sizeof buf, "%s%s %.2f", i ? " " : "", names[i], progress[i]);
+    s += buf;
+  }
+  std::snprintf(buf, sizeof buf, ", %d views%s", views, sufficient ? " (sufficient)" : "");
+  return s + buf;
+}
+
+bool FrameResult::any_kept() const {
+  return std::any_of(decisions.begin(), decisions.end(),
+                     [](const ViewDecision& d) { return d.kept; });
+}
+
+ViewCollector::ViewCollector(const ChessboardDetectorOptions& detector,
+                             const ViewSelectionOptions& selection)
+    : detector_(detector), selection_(selection) {
+  selection_.pattern_size = detector_.pattern_size;
+}
+
+FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& source) {
+  if (image.empty()) throw InputError(source + ": empty or undecodable image");
+  if (image_size_.area() == 0) image_size_ = image.size();
+  if (image.size() != image_size_) {
+    throw InputError(source + ": image is " + std::to_string(image.cols) + "x" +
+                     std::to_string(image.rows) + " but earlier ones are " +
+                     std::to_string(image_size_.width) + "x" + std::to_string(image_size_.height) +
+                     " (one calibration needs one image size)");
+  }
+  const int frame_index = frames_++;
+  const cv::Mat gray = toGray(image);
+  FrameResult result;
+  std::vector<BoardDetection> boards = detectChessboards(gray, detector_);
+  result.boards_found = static_cast<int>(boards.size());
+  for (BoardDetection& board : boards) {
+    // Cheap judgement first; the slow sub-pixel refinement only for views that are kept.
+    ViewDecision d = judge(board.corners, edgeWidthPx(gray, board.corners));
+    if (d.kept) {
+      refineCorners(gray, board, detector_);
+      d.corners = board.corners;
+      CalibrationView v;
+      v.corners = board.corners;
+      v.params = d.params;
+      v.edge_width_px = d.edge_width_px;
+      v.source = source;
+      v.frame_index = frame_index;
+      views_.push_back(v);
+    }
+    result.decisions.push_back(d);
+  }
+  return result;
+}
+
+ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
+                                    const cv::Size& image_size, double edge_width_px,
+                                    const std::string& source) {
+  if (image_size_.area() == 0) image_size_ = image_size;
+  ViewDecision d = judge(corners, edge_width_px);
+  if (d.kept) {
+    CalibrationView v;
+    v.corners = corners;
+    v.params = d.params;
+    v.edge_width_px = edge_width_px;
+    v.source = source;
+    v.frame_index = frames_;
+    views_.push_back(v);
+  }
+  ++frames_;
+  return d;
+}
+
+ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, double edge_width_px) {
+  ViewDecision d;
+  d.corners = corners;
+  d.edge_width_px = edge_width_px;
+  char buf[160];
+  if (static_cast<int>(corners.size()) != selection_.pattern_size.area()) {
+    d.reason = "wrong corner count " + std::to_string(corners.size());
+    return d;
+  }
+  for (const auto& p : corners) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+      d.reason = "corner is NaN or infinite";
+      return d;
+    }
+  }
+  d.params = computeViewParams(corners, image_size_, selection_);
+  if (!(edge_width_px <= selection_.max_edge_width_px)) {
+    std::snprintf(buf, sizeof buf, "blurred: edge width %.1f px > %.1f px", edge_width_px,
+                  selection_.max_edge_width_px);
+    d.reason = buf;
+    return d;
+  }
+  if (static_cast<int>(views_.size()) >= selection_.max_views) {
+    d.reason = "enough views already (" + std::to_string(views_.size()) + ")";
+    return d;
+  }
+  double nearest = std::numeric_limits<double>::infinity();
+  size_t nearest_index = 0;
+  const auto p = d.params.asArray();
+  for (size_t i = 0; i < views_.size(); ++i) {
+    const auto q = views_[i].params.asArray();
+    double l1 = 0;
+    for (size_t k = 0; k < p.size(); ++k) l1 += std::abs(p[k] - q[k]);
+    if (l1 < nearest) {
+      nearest = l1;
+      nearest_index = i;
+    }
+  }
+  if (nearest < selection_.min_novelty) {
+    std::snprintf(buf, sizeof buf, "too similar to kept view %zu (%s): novelty %.3f < %.3f",
+                  nearest_index, views_[nearest_index].source.c_str(), nearest,
+                  selection_.min_novelty);
+    d.reason = buf;
+    return d;
+  }
+  d.kept = true;
+  d.reason = "kept";
+  return d;
+}
+
+Coverage ViewCollector::coverage() const {
+  Coverage c;
+  c.views = static_cast<int>(views_.size());
+  if (views_.empty()) return c;
+  std::array<double, 6> lo, hi;
+  lo.fill(std::numeric_limits<double>::infinity());
+  hi.fill(-std::numeric_limits<double>::infinity());
+  for (const auto& v : views_) {
+    const auto a = v.params.asArray();
+    for (size_t k = 0; k < a.size(); ++k) {
+      lo[k] = std::min(lo[k], a[k]);
+      hi[k] = std::max(hi[k], a[k]);
+    }
+  }
+  bool all = true;
+  for (size_t k = 0; k < 6; ++k) {
+    c.spread[k] = hi[k] - lo[k];
+    const double goal = selection_.goal_spread[k];
+    c.progress[k] = goal > 0 ? std::min(1.0, c.spread[k] / goal) : 1.0;
+    all = all && c.progress[k] >= 1.0;
+  }
+  c.sufficient = (all && c.views >= selection_.min_views) || c.views >= selection_.max_views;
+  return c;
+}
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,396 @@
+// calibrate_camera: offline camera intrinsic calibration from an image folder or a bag.
+//   rosrun autocal calibrate_camera --images 'DIR/*.jpg' --board 9x6 --square 0.025 --out FILE.yaml
+//   rosrun autocal calibrate_camera --bag FILE.bag --topic /veh/camera_node/image/compressed ...
+// Writes the camera_info YAML (camera_calibration_parsers, atomically) only when the result passes
+// the quality gate, and beside it FILE_views/ with the views used (image + corners) for audit.
+// Exit codes: 0 written; 1 bad input, config or file error; 2 calibration failed or refused by
+// the quality gate (nothing written); 64 bad command line.
+#include <camera_calibration_parsers/parse_yml.h>
+#include <cv_bridge/cv_bridge.h>
+#include <glob.h>
+#include <ros/package.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <sstream>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/camera/camera_config.h"
+#include "autocal/camera/view_selection.h"
+#include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
+
+namespace fs = std::filesystem;
+using namespace autocal;
+using namespace autocal::camera;
+
+namespace {
+
+const char* kUsage =
+    "usage: calibrate_camera (--images 'GLOB' | --bag FILE --topic TOPIC) --out FILE.yaml\n"
+    "                        [--board 9x6] [--square 0.025] [--model "
+    "plumb_bob|rational_polynomial|equidistant]\n"
+    "                        [--config FILE] [--camera-name NAME] [--min-novelty X] [--holdout]\n";
+
+struct UsageError : Error {
+  using Error::Error;
+};
+
+struct Args {
+  std::string images, bag, topic, out, config, model, camera_name = "camera", board;
+  double square_m = 0;
+  double min_novelty = -1;
+  bool holdout = false;
+};
+
+Args parseArgs(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "--help" || k == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    if (k == "--holdout") {
+      a.holdout = true;
+      continue;
+    }
+    if (i + 1 >= argc) throw UsageError(k + " needs a value");
+    const std::string v = argv[++i];
+    if (k == "--images")
+      a.images = v;
+    else if (k == "--bag")
+      a.bag = v;
+    else if (k == "--topic")
+      a.topic = v;
+    else if (k == "--out")
+      a.out = v;
+    else if (k == "--config")
+      a.config = v;
+    else if (k == "--model")
+      a.model = v;
+    else if (k == "--camera-name")
+      a.camera_name = v;
+    else if (k == "--board")
+      a.board = v;
+    else if (k == "--square" || k == "--min-novelty") {
+      char* end = nullptr;
+      const double x = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end) throw UsageError(k + ": '" + v + "' is not a number");
+      (k == "--square" ? a.square_m : a.min_novelty) = x;
+    } else {
+      throw UsageError("unknown option " + k);
+    }
+  }
+  if (a.images.empty() == a.bag.empty()) throw UsageError("give exactly one of --images and --bag");
+  if (!a.bag.empty() && a.topic.empty()) throw UsageError("--bag needs --topic");
+  if (a.out.empty()) throw UsageError("--out is required");
+  return a;
+}
+
+std::string defaultConfigPath() {
+  // The source tree this binary was built from, else the package as ROS finds it.
+  const std::string built = std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml";
+  if (fs::exists(built)) return built;
+  return ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
+}
+
+// Feeds frames (image, name) to `sink`; throws InputError for unusable input.
+using FrameSink =
+    std::function<void(const cv::Mat&, const std::string&, size_t index, size_t total)>;
+
+void readImages(const std::string& pattern, const FrameSink& sink) {
+  glob_t g;
+  const int rc = ::glob(pattern.c_str(), 0, nullptr, &g);
+  std::vector<std::string> files;
+  if (rc == 0) {
+    for (size_t i = 0; i < g.gl_pathc; ++i) files.push_back(g.gl_pathv[i]);
+  }
+  globfree(&g);
+  if (files.empty()) throw InputError("--images '" + pattern + "': no file matches");
+  for (size_t i = 0; i < files.size(); ++i) {
+    // Grey: the detection and the calibration use grey only (and it decodes faster).
+    const cv::Mat img = cv::imread(files[i], cv::IMREAD_GRAYSCALE);
+    if (img.empty())
+      throw InputError(files[i] +
+                       ": cannot read or decode the image (missing, unreadable or corrupt)");
+    sink(img, files[i], i, files.size());
+  }
+}
+
+void readBag(const std::string& path, const std::string& topic, const FrameSink& sink,
+             std::vector<std::string>& undecodable) {
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    throw InputError(path + ": cannot open the bag: " + e.what());
+  }
+  rosbag::View view(bag, rosbag::TopicQuery(topic));
+  if (view.size() == 0) {
+    std::set<std::string> topics;
+    rosbag::View all(bag);
+    for (const rosbag::ConnectionInfo* c : all.getConnections())
+      topics.insert(c->topic + " (" + c->datatype + ")");
+    std::string list;
+    for (const auto& t : topics) list += "\n  " + t;
+    throw InputError(path + ": no messages on topic '" + topic +
+                     "'; the bag has:" + (list.empty() ? " nothing" : list));
+  }
+  const size_t total = view.size();
+  size_t index = 0;
+  for (const rosbag::MessageInstance& m : view) {
+    char name[160];
+    std::snprintf(name, sizeof name, "%s@%.3f", topic.c_str(), m.getTime().toSec());
+    cv::Mat img;
+    if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
+      if (!c->data.empty()) img = cv::imdecode(c->data, cv::IMREAD_COLOR);
+    } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
+      try {
+        img = cv_bridge::toCvCopy(r, "bgr8")->image;
+      } catch (const cv_bridge::Exception&) {
+      }
+    } else {
+      throw InputError(path + ": topic '" + topic + "' carries " + m.getDataType() +
+                       ", not sensor_msgs/CompressedImage or sensor_msgs/Image");
+    }
+    if (img.empty()) {
+      // A stream may carry a broken frame: refuse that frame, keep going.
+      undecodable.push_back(name);
+    } else {
+      sink(img, name, index, total);
+    }
+    ++index;
+  }
+  if (undecodable.size() == total)
+    throw InputError(path + ": no frame on '" + topic + "' could be decoded");
+}
+
+sensor_msgs::CameraInfo toCameraInfo(const Intrinsics& in) {
+  sensor_msgs::CameraInfo ci;
+  ci.width = static_cast<uint32_t>(in.image_size.width);
+  ci.height = static_cast<uint32_t>(in.image_size.height);
+  ci.distortion_model = distortionModelName(in.model);
+  ci.D = in.distortion;
+  for (int i = 0; i < 9; ++i) ci.K[static_cast<size_t>(i)] = in.camera_matrix.val[i];
+  ci.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  // As ROS camera_calibration does for a monocular camera: P is the new camera matrix of the
+  // rectified image with alpha (balance) 0, i.e. only valid pixels.
+  cv::Mat p;
+  if (in.model == DistortionModel::kEquidistant) {
+    cv::fisheye::estimateNewCameraMatrixForUndistortRectify(cv::Mat(in.camera_matrix),
+                                                            cv::Mat(in.distortion), in.image_size,
+                                                            cv::Mat::eye(3, 3, CV_64F), p, 0.0);
+  } else {
+    p = cv::getOptimalNewCameraMatrix(cv::Mat(in.camera_matrix), cv::Mat(in.distortion),
+                                      in.image_size, 0.0);
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) ci.P[static_cast<size_t>(r * 4 + c)] = p.at<double>(r, c);
+  }
+  return ci;
+}
+
+std::string viewsDirFor(const std::string& out) {
+  fs::path p(out);
+  return (p.parent_path() / (p.stem().string() + "_views")).string();
+}
+
+// The views used, each as a lossless image and its corners, so the result can be audited and
+// recomputed; written before the calibration file itself.
+void saveViews(const std::string& dir, const std::vector<CalibrationView>& views,
+               const CalibrationResult& result, const std::map<int, cv::Mat>& frames,
+               const Args& args, const CameraCalibrationConfig& config) {
+  std::ostringstream y;
+  y.precision(10);
+  y << "# Views used by calibrate_camera for " << fs::path(args.out).filename().string()
+    << "; corners in pixels, pattern row-major order\n";
+  const cv::Size& pattern = config.calibration.pattern_size;
+  y << "board: {inner_corners: " << pattern.width << "x" << pattern.height
+    << ", square_size_m: " << config.calibration.square_size_m << "}\n";
+  y << "image: {width: " << result.intrinsics.image_size.width
+    << ", height: " << result.intrinsics.image_size.height << "}\n";
+  y << "distortion_model: " << distortionModelName(result.intrinsics.model) << "\n";
+  y << "rms_px: " << result.rms_px << "\nfitted_terms: \"" << result.fitted_terms
+    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\nviews:\n";
+  for (size_t u = 0; u < result.used_views.size(); ++u) {
+    const CalibrationView& v = views[static_cast<size_t>(result.used_views[u])];
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%03zu.png", u);
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", frames.at(v.frame_index), png))
+      throw IoError(std::string("cannot encode ") + name);
+    writeFileAtomically(dir + "/" + name, std::string(png.begin(), png.end()),
+                        AtomicWriteOptions{"", true});
+    y << "  - image: " << name << "\n    source: \"" << v.source
+      << "\"\n    rms_px: " << result.per_view_rms_px[u] << "\n    corners: [";
+    for (size_t c = 0; c < v.corners.size(); ++c) {
+      y << (c ? ", " : "") << "[" << v.corners[c].x << ", " << v.corners[c].y << "]";
+    }
+    y << "]\n";
+  }
+  writeFileAtomically(dir + "/views.yaml", y.str());
+}
+
+int run(const Args& args) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CameraCalibrationConfig config =
+      loadCameraCalibrationConfig(args.config.empty() ? defaultConfigPath() : args.config);
+  cv::Size pattern = config.detector.pattern_size;
+  double square = config.calibration.square_size_m;
+  if (!args.board.empty()) pattern = parseBoardSize(args.board);
+  if (args.square_m != 0) square = args.square_m;
+  config.setBoard(pattern, square);
+  if (!args.model.empty()) config.calibration.model = parseDistortionModel(args.model);
+  if (args.min_novelty >= 0) config.selection.min_novelty = args.min_novelty;
+  config.validate();
+
+  ViewCollector collector(config.detector, config.selection);
+  std::map<int, cv::Mat> kept_frames;
+  std::vector<std::string> refused;  // "name: reason"
+  int frames_without_board = 0;
+  auto sink = [&](const cv::Mat& img, const std::string& name, size_t i, size_t total) {
+    const int frame_index = collector.frames();
+    const FrameResult r = collector.addFrame(img, name);
+    if (r.any_kept()) kept_frames[frame_index] = img;
+    std::string what;
+    if (r.boards_found == 0) {
+      ++frames_without_board;
+      refused.push_back(name + ": no board found");
+      what = "no board";
+    }
+    for (size_t b = 0; b < r.decisions.size(); ++b) {
+      const ViewDecision& d = r.decisions[b];
+      const std::string label = r.decisions.size() > 1 ? " board " + std::to_string(b) : "";
+      if (!d.kept) refused.push_back(name + label + ": " + d.reason);
+      char edge[48];
+      std::snprintf(edge, sizeof edge, " (edge width %.1f px)", d.edge_width_px);
+      what += (what.empty() ? "" : "; ") + label.substr(label.empty() ? 0 : 1) +
+              (label.empty() ? "" : " ") + d.reason + (d.kept ? edge : "");
+    }
+    if (r.any_kept()) what += "; coverage " + collector.coverage().summary();
+    // Every image of a folder, and about every 2 % of a bag, gets a progress line.
+    const size_t step = std::max<size_t>(1, total / 50);
+    if (args.bag.empty() || r.any_kept() || i % step == 0 || i + 1 == total) {
+      std::printf("[%zu/%zu] %s: %s\n", i + 1, total, name.c_str(), what.c_str());
+      std::fflush(stdout);
+    }
+  };
+  std::vector<std::string> undecodable;
+  if (!args.images.empty()) {
+    readImages(args.images, sink);
+  } else {
+    readBag(args.bag, args.topic, sink, undecodable);
+    for (const auto& u : undecodable) refused.push_back(u + ": cannot decode the image");
+  }
+  const Coverage coverage = collector.coverage();
+  std::printf("coverage: %s\n", coverage.summary().c_str());
+  const std::vector<CalibrationView>& views = collector.views();
+  if (views.empty()) {
+    throw CalibrationError("no usable view of a " + std::to_string(pattern.width) + "x" +
+                           std::to_string(pattern.height) + " board in " +
+                           std::to_string(collector.frames()) +
+                           " frames (check --board: inner corners, not squares)");
+  }
+  std::vector<std::vector<cv::Point2f>> corners;
+  for (const auto& v : views) corners.push_back(v.corners);
+  const auto t1 = std::chrono::steady_clock::now();
+  const CalibrationResult result = calibrate(corners, collector.imageSize(), config.calibration);
+  const auto t2 = std::chrono::steady_clock::now();
+  const double seconds = std::chrono::duration<double>(t2 - t0).count();
+
+  const Intrinsics& in = result.intrinsics;
+  std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.model).c_str(),
+              result.fitted_terms.c_str());
+  std::printf("image: %dx%d\n", in.image_size.width, in.image_size.height);
+  const auto sd = [&](size_t i) { return i < result.std_devs.size() ? result.std_devs[i] : 0.0; };
+  if (result.std_devs.empty()) {
+    // OpenCV's fisheye calibration reports no standard deviations.
+    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations for %s)\n", in.fx(),
+                in.fy(), in.cx(), in.cy(), distortionModelName(in.model).c_str());
+  } else {
+    std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
+                in.fx(), sd(0), in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
+  }
+  std::printf("distortion:");
+  for (size_t i = 0; i < in.distortion.size(); ++i) std::printf(" %.6f", in.distortion[i]);
+  std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);
+  std::printf("views used: %zu of %zu kept views (%d frames)\n", result.used_views.size(),
+              views.size(), collector.frames());
+  for (size_t u = 0; u < result.used_views.size(); ++u) {
+    std::printf("  used %s: RMS %.3f px\n",
+                views[static_cast<size_t>(result.used_views[u])].source.c_str(),
+                result.per_view_rms_px[u]);
+  }
+  if (result.dropped_corners) std::printf("outlier corners dropped: %d\n", result.dropped_corners);
+  std::printf("refused: %zu\n", refused.size() + result.dropped_views.size());
+  for (const auto& r : refused) std::printf("  refused %s\n", r.c_str());
+  for (const auto& d : result.dropped_views) {
+    std::printf("  refused %s: %s\n", views[static_cast<size_t>(d.index)].source.c_str(),
+                d.reason.c_str());
+  }
+  std::printf("selection: %s\n", result.selection_reason.c_str());
+  std::printf("images to intrinsics: %.3f s (reading and detection %.3f s, calibration %.3f s)\n",
+              seconds, std::chrono::duration<double>(t1 - t0).count(),
+              std::chrono::duration<double>(t2 - t1).count());
+
+  if (args.holdout) {
+    const HoldoutEvaluation ours =
+        leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kAutocal);
+    const HoldoutEvaluation plain = leaveOneOut(corners, collector.imageSize(), config.calibration,
+                                                HoldoutMethod::kPlainOpenCv);
+    std::printf(
+        "holdout: autocal %.4f px fx_spread %.3f px | plain_opencv %.4f px fx_spread %.3f px (%zu "
+        "folds)\n",
+        ours.mean_rms_px, ours.fx_spread_px, plain.mean_rms_px, plain.fx_spread_px, corners.size());
+  }
+
+  const std::vector<std::string> failures = checkQuality(result, config.quality_gate);
+  if (!failures.empty()) {
+    std::string msg =
+        "the result fails the quality gate, nothing written (" + args.out + " untouched):";
+    for (const auto& f : failures) msg += "\n  " + f;
+    throw CalibrationError(msg);
+  }
+  std::ostringstream yaml;
+  if (!camera_calibration_parsers::writeCalibrationYml(yaml, args.camera_name, toCameraInfo(in))) {
+    throw IoError("camera_calibration_parsers could not format the calibration");
+  }
+  const std::string views_dir = viewsDirFor(args.out);
+  saveViews(views_dir, views, result, kept_frames, args, config);
+  writeFileAtomically(args.out, yaml.str());
+  std::printf("wrote %s and %s/\n", args.out.c_str(), views_dir.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(parseArgs(argc, argv));
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "calibrate_camera: %s\n%s", e.what(), kUsage);
+    return 64;
+  } catch (const CalibrationError& e) {
+    std::fprintf(stderr, "calibrate_camera: calibration failed: %s\n", e.what());
+    return 2;
+  } catch (const Error& e) {
+    std::fprintf(stderr, "calibrate_camera: %s\n", e.what());
+    return 1;
+  } catch (const cv::Exception& e) {
+    std::fprintf(stderr, "calibrate_camera: OpenCV error: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,419 @@
+// Camera calibration core against synthetic truth: boards projected with known K, D and poses
+// plus seeded noise, rendered board images with known corner positions, and degenerate inputs
+// that must be refused with a clear reason.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/camera/camera_config.h"
+#include "autocal/camera/chessboard.h"
+#include "autocal/camera/view_selection.h"
+#include "autocal/errors.h"
+
+using namespace autocal;
+using namespace autocal::camera;
+
+namespace {
+
+const cv::Size kPattern(9, 6);
+const double kSquare = 0.025;
+const cv::Size kImage(640, 480);
+
+struct Truth {
+  cv::Matx33d k{420, 0, 322, 0, 421, 238, 0, 0, 1};
+  std::vector<double> d{-0.25, 0.07, 0.001, -0.0005, 0.0};
+  DistortionModel model = DistortionModel::kPlumbBob;
+};
+
+// Diverse poses: the board at 0.35..0.7 m, tilted up to ~40 degrees, centred at different places
+// of the image. Views that leave the image are skipped.
+std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, double noise_px,
+                                                     unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> n(0, noise_px);
+  const std::vector<cv::Point3f> board = boardPoints(kPattern, kSquare);
+  const cv::Point3f centre(4 * kSquare, 2.5 * kSquare, 0);
+  std::vector<std::vector<cv::Point2f>> views;
+  while (static_cast<int>(views.size()) < count) {
+    const double z = 0.45 + 0.2 * u(rng);
+    const cv::Vec3d rvec(0.6 * u(rng), 0.6 * u(rng), 0.3 * u(rng));
+    cv::Matx33d r;
+    cv::Rodrigues(rvec, r);
+    // Place the board centre at a random image position at depth z.
+    const double px = 320 + 200 * u(rng), py = 240 + 150 * u(rng);
+    const cv::Vec3d c_cam((px - t.k(0, 2)) / t.k(0, 0) * z, (py - t.k(1, 2)) / t.k(1, 1) * z, z);
+    const cv::Vec3d tvec = c_cam - r * cv::Vec3d(centre.x, centre.y, centre.z);
+    std::vector<cv::Point2f> img;
+    if (t.model == DistortionModel::kEquidistant) {
+      cv::fisheye::projectPoints(board, img, rvec, tvec, cv::Mat(t.k), cv::Mat(t.d));
+    } else {
+      cv::projectPoints(board, rvec, tvec, cv::Mat(t.k), cv::Mat(t.d), img);
+    }
+    bool inside = true;
+    for (auto& p : img) {
+      inside = inside && p.x > 5 && p.y > 5 && p.x < kImage.width - 5 && p.y < kImage.height - 5;
+      p.x += static_cast<float>(n(rng));
+      p.y += static_cast<float>(n(rng));
+    }
+    if (inside) views.push_back(img);
+  }
+  return views;
+}
+
+CalibrationOptions options() {
+  CalibrationOptions o;
+  o.pattern_size = kPattern;
+  o.square_size_m = kSquare;
+  return o;
+}
+
+}  // namespace
+
+TEST(CameraSynthetic, RecoversKnownPlumbBobIntrinsics) {
+  const Truth t;
+  const auto views = syntheticViews(t, 20, 0.1, 1);
+  const CalibrationResult r = calibrate(views, kImage, options());
+  EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.005);
+  EXPECT_NEAR(r.intrinsics.fy(), 421, 421 * 0.005);
+  EXPECT_NEAR(r.intrinsics.cx(), 322, 2.0);
+  EXPECT_NEAR(r.intrinsics.cy(), 238, 2.0);
+  EXPECT_NEAR(r.intrinsics.distortion[0], -0.25, 0.02);
+  EXPECT_NEAR(r.intrinsics.distortion[1], 0.07, 0.03);
+  EXPECT_LT(r.rms_px, 0.15);
+  EXPECT_EQ(r.used_views.size(), 20u);
+  EXPECT_EQ(r.per_view_rms_px.size(), 20u);
+  ASSERT_EQ(r.std_devs.size(), 9u);
+  EXPECT_GT(r.std_devs[0], 0);
+  EXPECT_LT(r.std_devs[0], 2.0);
+  EXPECT_TRUE(checkQuality(r, QualityGateOptions()).empty());
+}
+
+TEST(CameraSynthetic, UnconstrainedK3IsHeldFixed) {
+  // The truth has k3 = 0 and the views are noisy: fitting k3 only fits noise.
+  const Truth t;
+  const auto views = syntheticViews(t, 12, 0.3, 2);
+  const CalibrationResult r = calibrate(views, kImage, options());
+  EXPECT_NE(r.fitted_terms.find("k3 fixed"), std::string::npos) << r.fitted_terms;
+  EXPECT_EQ(r.intrinsics.distortion[4], 0.0);
+  EXPECT_NE(r.selection_reason.find("k3 = "), std::string::npos) << r.selection_reason;
+  // The same choice by held-out error.
+  CalibrationOptions o = options();
+  o.selection = CalibrationOptions::Selection::kHoldout;
+  const CalibrationResult h = calibrate(views, kImage, o);
+  EXPECT_NE(h.fitted_terms.find("k3 fixed"), std::string::npos) << h.fitted_terms;
+  EXPECT_GT(h.selection_holdout_rms_px, 0.0);
+}
+
+TEST(CameraSynthetic, ConstrainedK3IsFitted) {
+  // Strong k3 and many precise views: k3 stands well out of its uncertainty and is fitted.
+  Truth t;
+  t.d = {-0.3, 0.1, 0.0, 0.0, 0.3};
+  const auto views = syntheticViews(t, 25, 0.05, 11);
+  const CalibrationResult r = calibrate(views, kImage, options());
+  EXPECT_EQ(r.fitted_terms, "k1 k2 p1 p2 k3") << r.selection_reason;
+  EXPECT_NEAR(r.intrinsics.distortion[4], 0.3, 0.1);
+}
+
+TEST(CameraSynthetic, RationalAndFisheyeOptions) {
+  {
+    const Truth t;
+    CalibrationOptions o = options();
+    o.model = DistortionModel::kRationalPolynomial;
+    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 3), kImage, o);
+    EXPECT_EQ(r.intrinsics.distortion.size(), 8u);
+    EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.01);
+    EXPECT_EQ(distortionModelName(r.intrinsics.model), "rational_polynomial");
+  }
+  {
+    Truth t;
+    t.model = DistortionModel::kEquidistant;
+    t.d = {0.05, -0.02, 0.0, 0.0};
+    CalibrationOptions o = options();
+    o.model = DistortionModel::kEquidistant;
+    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 4), kImage, o);
+    EXPECT_EQ(r.intrinsics.distortion.size(), 4u);
+    EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.01);
+    EXPECT_NEAR(r.intrinsics.distortion[0], 0.05, 0.02);
+    EXPECT_LT(r.rms_px, 0.2);
+    EXPECT_EQ(distortionModelName(r.intrinsics.model), "equidistant");
+  }
+}
+
+TEST(CameraSynthetic, OutlierViewAndCornerAreDropped) {
+  const Truth t;
+  auto views = syntheticViews(t, 16, 0.1, 5);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0, 3.0);
+  for (auto& p : views[3]) {  // a view with 3 px noise: a wrongly matched board
+    p.x += static_cast<float>(n(rng));
+    p.y += static_cast<float>(n(rng));
+  }
+  views[8][20].x += 6.0f;  // one corner pulled off by 6 px
+  const CalibrationResult r = calibrate(views, kImage, options());
+  ASSERT_EQ(r.dropped_views.size(), 1u);
+  EXPECT_EQ(r.dropped_views[0].index, 3);
+  EXPECT_NE(r.dropped_views[0].reason.find("outlier view"), std::string::npos);
+  EXPECT_GE(r.dropped_corners, 1);
+  EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.005);
+  EXPECT_LT(r.rms_px, 0.15);
+}
+
+TEST(CameraSynthetic, DegenerateInputsAreRefusedWithAReason) {
+  const Truth t;
+  const auto views = syntheticViews(t, 12, 0.1, 6);
+  // Too few views.
+  try {
+    calibrate({views.begin(), views.begin() + 3}, kImage, options());
+    FAIL() << "3 views accepted";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("too few views"), std::string::npos) << e.what();
+  }
+  // All views alike: one pose seen ten times, with noise.
+  std::vector<std::vector<cv::Point2f>> alike;
+  std::mt19937 rng(8);
+  std::normal_distribution<double> n(0, 0.1);
+  for (int i = 0; i < 10; ++i) {
+    auto v = views[0];
+    for (auto& p : v) p += cv::Point2f(static_cast<float>(n(rng)), static_cast<float>(n(rng)));
+    alike.push_back(v);
+  }
+  try {
+    calibrate(alike, kImage, options());
+    FAIL() << "identical views accepted";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("views all alike"), std::string::npos) << e.what();
+  }
+  // A NaN corner.
+  auto with_nan = views;
+  with_nan[5][7].x = std::numeric_limits<float>::quiet_NaN();
+  try {
+    calibrate(with_nan, kImage, options());
+    FAIL() << "NaN accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("view 5: corner 7 is NaN"), std::string::npos) << e.what();
+  }
+  // Wrong corner count.
+  auto short_view = views;
+  short_view[2].pop_back();
+  EXPECT_THROW(calibrate(short_view, kImage, options()), InputError);
+}
+
+TEST(CameraSynthetic, QualityGateRefusesNoisyResult) {
+  const Truth t;
+  const auto views = syntheticViews(t, 12, 1.5, 9);
+  CalibrationOptions o = options();
+  o.outlier_view_min_px = 100;  // keep every view: test the gate, not the outlier filter
+  o.outlier_corner_min_px = 100;
+  const CalibrationResult r = calibrate(views, kImage, o);
+  const auto reasons = checkQuality(r, QualityGateOptions());
+  ASSERT_FALSE(reasons.empty());
+  EXPECT_NE(reasons[0].find("RMS reprojection error"), std::string::npos) << reasons[0];
+}
+
+TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
+  const Truth t;
+  const auto views = syntheticViews(t, 60, 0.1, 12);
+  ViewSelectionOptions sel;
+  sel.min_novelty = 0.05;
+  ViewCollector collector{ChessboardDetectorOptions(), sel};
+  int kept = 0;
+  bool sufficient_before_max = false;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const ViewDecision d =
+        collector.addView(views[i], kImage, 2.0, "synthetic " + std::to_string(i));
+    kept += d.kept;
+    const Coverage c = collector.coverage();
+    if (c.sufficient && c.views < sel.max_views) sufficient_before_max = true;
+  }
+  const Coverage c = collector.coverage();
+  EXPECT_EQ(kept, sel.max_views);
+  EXPECT_TRUE(c.sufficient) << c.summary();
+  std::printf("coverage after %zu views offered: %s (full spread before max_views: %s)\n",
+              views.size(), c.summary().c_str(), sufficient_before_max ? "yes" : "no");
+  const ViewDecision extra = collector.addView(views[0], kImage, 2.0, "extra");
+  EXPECT_FALSE(extra.kept);
+  EXPECT_NE(extra.reason.find("enough views"), std::string::npos) << extra.reason;
+  // A blurred view is refused before anything else is judged.
+  ViewCollector fresh{ChessboardDetectorOptions(), sel};
+  const ViewDecision blurred = fresh.addView(views[0], kImage, 9.0, "blurred");
+  EXPECT_FALSE(blurred.kept);
+  EXPECT_NE(blurred.reason.find("blurred"), std::string::npos) << blurred.reason;
+}
+
+TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
+  const Truth t;
+  const auto views = syntheticViews(t, 10, 0.2, 10);
+  const HoldoutEvaluation ours = leaveOneOut(views, kImage, options(), HoldoutMethod::kAutocal);
+  const HoldoutEvaluation plain =
+      leaveOneOut(views, kImage, options(), HoldoutMethod::kPlainOpenCv);
+  EXPECT_EQ(ours.fold_rms_px.size(), 10u);
+  EXPECT_LT(ours.mean_rms_px, 0.35);
+  EXPECT_LE(ours.mean_rms_px, plain.mean_rms_px * 1.05);
+  EXPECT_LT(ours.fx_spread_px, 420 * 0.02);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rendered images.
+namespace {
+
+// A board texture: (cols+1) x (rows+1) squares of `s` px and a white margin of one square.
+cv::Mat boardTexture(int s) {
+  cv::Mat tex(cv::Size((kPattern.width + 3) * s, (kPattern.height + 3) * s), CV_8U,
+              cv::Scalar(230));
+  for (int r = 0; r <= kPattern.height; ++r) {
+    for (int c = 0; c <= kPattern.width; ++c) {
+      if ((r + c) % 2 == 0) tex(cv::Rect((c + 1) * s, (r + 1) * s, s, s)).setTo(25);
+    }
+  }
+  return tex;
+}
+
+// Inner corners in texture pixel-centre coordinates (a square edge lies half a pixel before the
+// first pixel of the square).
+std::vector<cv::Point2f> textureCorners(int s) {
+  std::vector<cv::Point2f> c;
+  for (int r = 0; r < kPattern.height; ++r) {
+    for (int col = 0; col < kPattern.width; ++col) {
+      c.emplace_back((col + 2) * s - 0.5f, (r + 2) * s - 0.5f);
+    }
+  }
+  return c;
+}
+
+// Renders the board into `frame` so that its four outer inner corners land on `quad`
+// (top-left, top-right, bottom-right, bottom-left); returns the true corners. 4x supersampled.
+std::vector<cv::Point2f> renderBoard(cv::Mat& frame, const std::vector<cv::Point2f>& quad) {
+  const int s = 40, ss = 4;
+  const cv::Mat tex = boardTexture(s);
+  const auto tc = textureCorners(s);
+  const std::vector<cv::Point2f> src{tc[0], tc[kPattern.width - 1], tc[tc.size() - 1],
+                                     tc[tc.size() - kPattern.width]};
+  const cv::Mat h = cv::getPerspectiveTransform(src, quad);
+  // Supersample: render at ss x the size, then average blocks of ss x ss.
+  const cv::Matx33d scale(ss, 0, (ss - 1) / 2.0, 0, ss, (ss - 1) / 2.0, 0, 0, 1);
+  cv::Mat big_h = cv::Mat(scale) * h;
+  cv::Mat big, mask_big, small, mask;
+  cv::warpPerspective(tex, big, big_h, frame.size() * ss, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  cv::warpPerspective(cv::Mat(tex.size(), CV_8U, cv::Scalar(255)), mask_big, big_h,
+                      frame.size() * ss, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::resize(big, small, frame.size(), 0, 0, cv::INTER_AREA);
+  cv::resize(mask_big, mask, frame.size(), 0, 0, cv::INTER_AREA);
+  small.copyTo(frame, mask > 128);
+  std::vector<cv::Point2f> truth;
+  cv::perspectiveTransform(tc, truth, h);
+  return truth;
+}
+
+cv::Mat background() { return cv::Mat(kImage, CV_8U, cv::Scalar(128)); }
+
+double maxError(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
+  double m = 0;
+  for (size_t i = 0; i < a.size(); ++i) m = std::max(m, cv::norm(a[i] - b[i]));
+  return m;
+}
+
+}  // namespace
+
+TEST(CameraImages, SubPixelCornersOfARenderedBoard) {
+  cv::Mat frame = background();
+  const auto truth = renderBoard(frame, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
+  ChessboardDetectorOptions det;
+  auto boards = detectChessboards(frame, det);
+  ASSERT_EQ(boards.size(), 1u);
+  refineCorners(frame, boards[0], det);
+  EXPECT_LT(maxError(boards[0].corners, truth), 0.15);
+}
+
+TEST(CameraImages, TwoBoardsInOneFrameAreNeverMixed) {
+  cv::Mat frame = background();
+  // Close together (their white margins touch) and both wholly inside the frame.
+  const auto left = renderBoard(frame, {{75, 110}, {295, 130}, {290, 320}, {80, 300}});
+  const auto right = renderBoard(frame, {{375, 150}, {570, 125}, {575, 330}, {370, 350}});
+  ChessboardDetectorOptions det;
+  auto boards = detectChessboards(frame, det);
+  ASSERT_EQ(boards.size(), 2u);
+  int matched_left = 0, matched_right = 0;
+  for (auto& b : boards) {
+    refineCorners(frame, b, det);
+    // Every corner of one detection belongs to the same physical board (either corner order).
+    auto reversed = b.corners;
+    std::reverse(reversed.begin(), reversed.end());
+    const double e_left = std::min(maxError(b.corners, left), maxError(reversed, left));
+    const double e_right = std::min(maxError(b.corners, right), maxError(reversed, right));
+    if (e_left < 0.3) ++matched_left;
+    if (e_right < 0.3) ++matched_right;
+  }
+  EXPECT_EQ(matched_left, 1);
+  EXPECT_EQ(matched_right, 1);
+}
+
+TEST(CameraImages, NoBoardNoDetection) {
+  cv::Mat frame = background();
+  cv::randn(frame, 128, 30);
+  EXPECT_TRUE(detectChessboards(frame, ChessboardDetectorOptions()).empty());
+}
+
+TEST(CameraImages, BlurredViewIsRefused) {
+  cv::Mat sharp = background();
+  renderBoard(sharp, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
+  cv::Mat blurred, motion;
+  cv::GaussianBlur(sharp, blurred, cv::Size(0, 0), 3.0);
+  // Horizontal motion blur over 12 px.
+  cv::blur(sharp, motion, cv::Size(12, 1));
+  const auto corners = detectChessboards(sharp, ChessboardDetectorOptions())[0].corners;
+  const double w_sharp = edgeWidthPx(sharp, corners), w_blur = edgeWidthPx(blurred, corners),
+               w_motion = edgeWidthPx(motion, corners);
+  EXPECT_LT(w_sharp, 3.0);
+  EXPECT_GT(w_blur, 6.0);
+  EXPECT_GT(w_motion, 6.0);
+
+  ViewCollector collector{ChessboardDetectorOptions(), ViewSelectionOptions()};
+  const FrameResult r = collector.addFrame(blurred, "blurred");
+  ASSERT_EQ(r.decisions.size(), 1u) << "the detector should still find the blurred board";
+  EXPECT_FALSE(r.decisions[0].kept);
+  EXPECT_NE(r.decisions[0].reason.find("blurred"), std::string::npos) << r.decisions[0].reason;
+  EXPECT_TRUE(collector.addFrame(sharp, "sharp").any_kept());
+}
+
+TEST(CameraImages, FramesOneAtATimeKeepOnlyNewViewsAndReportCoverage) {
+  ViewCollector collector{ChessboardDetectorOptions(), ViewSelectionOptions()};
+  cv::Mat a = background();
+  renderBoard(a, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
+  EXPECT_TRUE(collector.addFrame(a, "a").any_kept());
+  const FrameResult again = collector.addFrame(a, "a again");
+  ASSERT_EQ(again.decisions.size(), 1u);
+  EXPECT_FALSE(again.decisions[0].kept);
+  EXPECT_NE(again.decisions[0].reason.find("too similar"), std::string::npos);
+  cv::Mat b = background();
+  renderBoard(b, {{20, 20}, {220, 40}, {215, 170}, {25, 150}});
+  EXPECT_TRUE(collector.addFrame(b, "b").any_kept());
+  const Coverage c = collector.coverage();
+  EXPECT_EQ(c.views, 2);
+  EXPECT_FALSE(c.sufficient);
+  EXPECT_GT(c.progress[0], 0.2);
+  EXPECT_THROW(collector.addFrame(cv::Mat(100, 100, CV_8U, cv::Scalar(0)), "small"), InputError);
+}
+
+TEST(CameraConfig, ShippedConfigLoadsAndMatchesDefaults) {
+  const auto c = loadCameraCalibrationConfig(std::string(AUTOCAL_SOURCE_DIR) +
+                                             "/config/camera_calibration.yaml");
+  const CameraCalibrationConfig d;
+  EXPECT_EQ(c.detector.pattern_size, d.detector.pattern_size);
+  EXPECT_EQ(c.calibration.square_size_m, d.calibration.square_size_m);
+  EXPECT_EQ(c.detector.refine_window_ratio, d.detector.refine_window_ratio);
+  EXPECT_EQ(c.selection.min_novelty, d.selection.min_novelty);
+  EXPECT_EQ(c.selection.goal_spread, d.selection.goal_spread);
+  EXPECT_EQ(c.selection.max_edge_width_px, d.selection.max_edge_width_px);
+  EXPECT_EQ(c.calibration.max_selection_folds, d.calibration.max_selection_folds);
+  EXPECT_EQ(c.calibration.outlier_view_factor, d.calibration.outlier_view_factor);
+  EXPECT_EQ(c.quality_gate.max_rms_px, d.quality_gate.max_rms_px);
+  EXPECT_EQ(c.quality_gate.min_views, d.quality_gate.min_views);
+  EXPECT_THROW(parseBoardSize("9by6"), ConfigError);
+  EXPECT_THROW(parseDistortionModel("pinhole"), ConfigError);
+  EXPECT_EQ(parseBoardSize("9x6"), cv::Size(9, 6));
+}

@@ -9,9 +9,9 @@ namespace autocal {
 namespace sim {
 
 CameraModel::CameraModel(const Intrinsics& intrinsics) : in_(intrinsics) {
-  if (in_.distortion_coefficients.size() != coefficientCount(in_.distortion_model)) {
-    throw ConfigError("camera model " + toString(in_.distortion_model) + " takes " +
-                      std::to_string(coefficientCount(in_.distortion_model)) + " coefficients");
+  if (in_.distortion_coefficients.size() != distortionCoefficientCount(in_.distortion_model)) {
+    throw ConfigError("camera model " + distortionModelName(in_.distortion_model) + " takes " +
+                      std::to_string(distortionCoefficientCount(in_.distortion_model)) + " coefficients");
   }
   for (size_t i = 0; i < in_.distortion_coefficients.size(); ++i) k_[i] = in_.distortion_coefficients[i];
 }

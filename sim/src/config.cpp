@@ -8,30 +8,6 @@
 namespace autocal {
 namespace sim {
 
-std::string toString(DistortionModel model) {
-  switch (model) {
-    case DistortionModel::kPlumbBob:
-      return "plumb_bob";
-    case DistortionModel::kRationalPolynomial:
-      return "rational_polynomial";
-    case DistortionModel::kEquidistant:
-      return "equidistant";
-  }
-  return "unknown";
-}
-
-size_t coefficientCount(DistortionModel model) {
-  switch (model) {
-    case DistortionModel::kPlumbBob:
-      return 5;
-    case DistortionModel::kRationalPolynomial:
-      return 8;
-    case DistortionModel::kEquidistant:
-      return 4;
-  }
-  return 0;
-}
-
 namespace {
 
 double positive(YamlMap& m, const std::string& key) {
@@ -72,18 +48,13 @@ Intrinsics readIntrinsics(YamlMap& m, bool with_size, int width, int height) {
   in.cx = m.required<double>("cx");
   in.cy = m.required<double>("cy");
   const std::string model = m.required<std::string>("distortion_model");
-  if (model == "plumb_bob") {
-    in.distortion_model = DistortionModel::kPlumbBob;
-  } else if (model == "rational_polynomial") {
-    in.distortion_model = DistortionModel::kRationalPolynomial;
-  } else if (model == "equidistant") {
-    in.distortion_model = DistortionModel::kEquidistant;
-  } else {
-    m.fail("distortion_model",
-           "must be plumb_bob, rational_polynomial or equidistant, got '" + model + "'");
+  try {
+    in.distortion_model = parseDistortionModel(model);
+  } catch (const ConfigError&) {
+    m.fail("distortion_model", "must be plumb_bob, rational_polynomial or equidistant, got '" + model + "'");
   }
   in.distortion_coefficients = m.required<std::vector<double>>("distortion_coefficients");
-  const size_t n = coefficientCount(in.distortion_model);
+  const size_t n = distortionCoefficientCount(in.distortion_model);
   if (in.distortion_coefficients.size() != n) {
     m.fail("distortion_coefficients", model + " takes " + std::to_string(n) +
                                           " coefficients, got " +

@@ -145,7 +145,7 @@ TEST(SimRenderer, CameraModelMatchesOpenCvProjection) {
       // And the ray through that pixel points back at the point.
       Eigen::Vector3d ray;
       ASSERT_TRUE(m.ray(mine.x(), mine.y(), &ray));
-      EXPECT_NEAR(ray.dot(p.normalized()), 1.0, 1e-12) << sim::toString(model) << " " << p.transpose();
+      EXPECT_NEAR(ray.dot(p.normalized()), 1.0, 1e-12) << distortionModelName(model) << " " << p.transpose();
     }
   }
 }

@@ -9,15 +9,14 @@
 #include <string>
 #include <vector>
 
+#include "autocal/distortion_model.h"
+
 namespace autocal {
 namespace camera {
 
-enum class DistortionModel { kPlumbBob, kRationalPolynomial, kEquidistant };
-
-/// The ROS camera_info name: "plumb_bob", "rational_polynomial", "equidistant".
-std::string distortionModelName(DistortionModel model);
-/// Parses a ROS name (also "fisheye" for equidistant); throws ConfigError for others.
-DistortionModel parseDistortionModel(const std::string& name);
+using autocal::DistortionModel;
+using autocal::distortionModelName;
+using autocal::parseDistortionModel;
 
 struct CalibrationOptions {
   DistortionModel model = DistortionModel::kPlumbBob;

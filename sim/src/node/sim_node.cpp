@@ -33,7 +33,7 @@ sensor_msgs::CameraInfo cameraInfo(const Intrinsics& in) {
   sensor_msgs::CameraInfo info;
   info.width = static_cast<uint32_t>(in.width);
   info.height = static_cast<uint32_t>(in.height);
-  info.distortion_model = toString(in.distortion_model);
+  info.distortion_model = distortionModelName(in.distortion_model);
   info.D = in.distortion_coefficients;
   info.K = {in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1};
   info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};

@@ -14,27 +14,6 @@
 namespace autocal {
 namespace camera {
 
-std::string distortionModelName(DistortionModel model) {
-  switch (model) {
-    case DistortionModel::kPlumbBob:
-      return "plumb_bob";
-    case DistortionModel::kRationalPolynomial:
-      return "rational_polynomial";
-    case DistortionModel::kEquidistant:
-      return "equidistant";
-  }
-  return "unknown";
-}
-
-DistortionModel parseDistortionModel(const std::string& name) {
-  if (name == "plumb_bob") return DistortionModel::kPlumbBob;
-  if (name == "rational_polynomial" || name == "rational")
-    return DistortionModel::kRationalPolynomial;
-  if (name == "equidistant" || name == "fisheye") return DistortionModel::kEquidistant;
-  throw ConfigError("unknown distortion model '" + name +
-                    "' (expected plumb_bob, rational_polynomial or equidistant)");
-}
-
 std::vector<cv::Point3f> boardPoints(const cv::Size& pattern_size, double square_size_m) {
   std::vector<cv::Point3f> points;
   for (int r = 0; r < pattern_size.height; ++r) {

@@ -6,15 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "autocal/distortion_model.h"
+
 namespace autocal {
 namespace sim {
 
-enum class DistortionModel { kPlumbBob, kRationalPolynomial, kEquidistant };
-
-/// "plumb_bob", "rational_polynomial", "equidistant" (the ROS camera_info names).
-std::string toString(DistortionModel model);
-/// Number of coefficients the model takes (5, 8, 4).
-size_t coefficientCount(DistortionModel model);
+using autocal::DistortionModel;
 
 /// Intrinsics and distortion of a pinhole camera.
 struct Intrinsics {

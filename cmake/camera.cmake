@@ -30,6 +30,7 @@ endif()
 
 # Detection speed benchmark (scripts/bench/camera.sh); ROS-free.
 add_executable(bench_camera_detection test/camera/bench_camera_detection.cpp)
-target_link_libraries(bench_camera_detection autocal_core)
+target_link_libraries(bench_camera_detection autocal_core autocal_sim_core)
+target_compile_definitions(bench_camera_detection PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 target_compile_options(bench_camera_detection PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

@@ -1,10 +1,14 @@
-// Detection speed per 640x480 frame, single-threaded: OpenCV's left*.jpg (a 9x6 board in view)
-// and natural photos of the same size without a board (opencv-doc). Prints one line per case:
-//   <case> <mean ms per frame> <slowest frame ms> <frames>
+// Detection speed per 640x480 frame, single-threaded: OpenCV's left*.jpg (a 9x6 board in view),
+// natural photos of the same size without a board (opencv-doc), and frames the simulator renders
+// as the robot pivots in front of its boards (7x5; several boards in view, some cut by the
+// image's edge). Prints one line per case:
+//   <case> <mean ms per frame> <slowest frame ms> <frames> [<boards found>]
 // Used by scripts/bench/camera.sh.
 #include <glob.h>
 
 #include <algorithm>
+#include <cmath>
+#include <random>
 #include <chrono>
 #include <cstdio>
 #include <opencv2/core.hpp>
@@ -15,6 +19,8 @@
 
 #include "autocal/camera/chessboard.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
 
 using namespace autocal::camera;
 
@@ -103,6 +109,40 @@ int main(int argc, char** argv) {
   line("board_in_view_up_to_4_boards", board_multi, with_board.size());
   line("no_board_up_to_4_boards", none_multi, without.size());
   line("board_in_view_kept_view_full_path", kept, with_board.size());
+  // The simulator's pivot scene: 36 still frames, pivoting on the left wheel through 180 degrees.
+  const std::string sim_dir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
+  const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(sim_dir + "robot.yaml");
+  const autocal::sim::WorldConfig world = autocal::sim::loadWorldConfig(sim_dir + "world.yaml");
+  autocal::sim::RenderOptions render;
+  render.noise_sigma = robot.camera.noise_sigma;
+  const autocal::sim::Renderer renderer(robot.camera, world, render);
+  std::mt19937_64 rng(1);
+  std::vector<cv::Mat> sim_frames;
+  const double half_b = 0.5 * robot.wheelbase;
+  for (int i = 0; i < 36; ++i) {
+    const double yaw = -1.6 + 3.2 * i / 35.0;
+    const cv::Mat bgr = renderer.render({{half_b * std::sin(yaw), half_b - half_b * std::cos(yaw), yaw}}, rng);
+    cv::Mat gray;
+    cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+    sim_frames.push_back(gray);
+  }
+  const cv::Size sim_board(world.chessboards.front().cols, world.chessboards.front().rows);
+  struct Variant {
+    const char* name;
+    bool precheck, adaptive;
+  };
+  for (const Variant& v : {Variant{"sim_frames_default", true, false}, Variant{"sim_frames_adaptive", true, true},
+                           Variant{"sim_frames_no_precheck", false, false},
+                           Variant{"sim_frames_no_precheck_adaptive", false, true}}) {
+    ChessboardDetectorOptions o = multi;
+    o.pattern_size = sim_board;
+    o.half_resolution_precheck = v.precheck;
+    o.adaptive_threshold = v.adaptive;
+    int boards = 0;
+    for (const cv::Mat& m : sim_frames) boards += static_cast<int>(detectChessboards(m, o).size());
+    const Timing timed = timeFrames(sim_frames, rounds, [&](const cv::Mat& m) { detectChessboards(m, o); });
+    std::printf("%s %.2f %.2f %zu %d\n", v.name, timed.mean_ms, timed.max_ms, sim_frames.size(), boards);
+  }
   std::printf("boards_found_check %d\n", found);
   return 0;
 }

@@ -24,6 +24,13 @@ struct ChessboardDetectorOptions {
   /// search after the last board of a frame, cost that much instead of 10–100 ms. Boards whose
   /// squares are smaller than about 10 px may be missed; turn off for such images.
   bool half_resolution_precheck = true;
+  /// OpenCV's adaptive thresholds (cv::CALIB_CB_ADAPTIVE_THRESH) in the first search of a frame
+  /// (further searches always use one global threshold). They help with uneven light, but a
+  /// search that finds no board then tries every block size and dilation: 100-1200 ms on frames
+  /// where a board is cut by the image's edge, as when the robot turns past its boards. Off by
+  /// default: the global threshold finds the same boards in OpenCV's sample photos and the
+  /// simulator's frames.
+  bool adaptive_threshold = false;
   /// Sub-pixel window half-size as a fraction of the smallest corner spacing in the view. A window
   /// that reaches the neighbouring corners (ROS camera_calibration uses 0.5) pulls corners off the
   /// true saddle point: on OpenCV's sample photos 0.5 gives 1.3 px held-out error, 0.3 gives 0.19.

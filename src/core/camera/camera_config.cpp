@@ -82,6 +82,7 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.detector.max_boards = d.required<int>("max_boards");
     c.detector.fast_check = d.required<bool>("fast_check");
     c.detector.half_resolution_precheck = d.required<bool>("half_resolution_precheck");
+    c.detector.adaptive_threshold = d.required<bool>("adaptive_threshold");
     c.detector.refine_window_ratio = d.required<double>("refine_window_ratio");
     c.detector.refine_min_half_window_px = d.required<int>("refine_min_half_window_px");
     c.detector.refine_max_half_window_px = d.required<int>("refine_max_half_window_px");

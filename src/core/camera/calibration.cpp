@@ -404,26 +404,33 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     // swing by 15 px in fx between folds of 13 photos).
     size_t level = sets.size() - 1;
     Fit f = fit(obj, img, image_size, options.model, sets[level].flags);
+    const auto fitLevel = [&](size_t l) {
+      return (l == judge_level && judge_fit) ? *judge_fit : fit(obj, img, image_size, options.model, sets[l].flags);
+    };
     while (level > 0) {
+      // The simpler model nests in this one, so at the optimum this one's RMS is lower. When it
+      // is not, the optimiser has run off along a valley the views do not constrain (boards all
+      // at one height in the image trade fx against the radial terms: +14 % fx in the
+      // simulator's pivot scene), and the added terms' small standard deviations mean nothing.
+      Fit simpler = fitLevel(level - 1);
       bool significant = false;
-      std::string why;
-      for (int i : sets[level].added) {
-        const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
-        const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
-        const double t =
-            sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
-        significant = significant || t >= options.min_term_significance;
-        why += (why.empty() ? "" : ", ") + term_name(i) +
-               fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+      std::string why, verdict = fmt(": fixed at 0 (t < %.1f)", options.min_term_significance);
+      if (f.rms_px >= simpler.rms_px) {
+        why = sets[level].name + fmt(" does not lower the RMS (%.4f px, without: %.4f px)", f.rms_px, simpler.rms_px);
+        verdict = ": its added terms fixed at 0";
+      } else {
+        for (int i : sets[level].added) {
+          const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
+          const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
+          const double t = sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
+          significant = significant || t >= options.min_term_significance;
+          why += (why.empty() ? "" : ", ") + term_name(i) + fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+        }
       }
-      result.selection_reason +=
-          (result.selection_reason.empty() ? "" : "; ") + why +
-          (significant ? ": kept" : fmt(": fixed at 0 (t < %.1f)", options.min_term_significance));
+      result.selection_reason += (result.selection_reason.empty() ? "" : "; ") + why + (significant ? ": kept" : verdict);
       if (significant) break;
       --level;
-      f = (level == judge_level && judge_fit)
-              ? *judge_fit
-              : fit(obj, img, image_size, options.model, sets[level].flags);
+      f = std::move(simpler);
     }
     chosen = sets[level];
     final_fit = f;

@@ -1,0 +1,76 @@
+// The camera calibration core on the simulator's rendered frames: the robot pivots on each wheel
+// in front of the default world's boards (paper 000 §4: the robot turns in place past boards set
+// around it), every still frame goes through the ViewCollector as a live frame would, and the
+// intrinsics are compared with the simulator's TRUE lens (which the calibration never reads).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/camera/view_selection.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+
+namespace {
+
+using namespace autocal;
+
+TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
+  const std::string dir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
+  const sim::RobotConfig robot = sim::loadRobotConfig(dir + "robot.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(dir + "world.yaml");
+  sim::RenderOptions render;
+  render.supersampling = robot.camera.supersampling;
+  render.noise_sigma = robot.camera.noise_sigma;
+  const sim::Renderer renderer(robot.camera, world, render);
+
+  const sim::ChessboardConfig& board = world.chessboards.front();
+  camera::ChessboardDetectorOptions detector;
+  detector.pattern_size = cv::Size(board.cols, board.rows);
+  detector.half_resolution_precheck = false;  // the robot's boards are small in its image
+  camera::ViewSelectionOptions selection;
+  selection.pattern_size = detector.pattern_size;
+  selection.square_size_m = board.square_m;
+  camera::ViewCollector collector(detector, selection);
+
+  // Pivot on the stopped left wheel, then on the stopped right wheel, from two places.
+  std::mt19937_64 rng(11);
+  const double half_b = 0.5 * robot.wheelbase;
+  int frames = 0;
+  for (const double start_x : {0.0, -0.12}) {
+    for (const double side : {1.0, -1.0}) {  // +1: about the left wheel at (x, +b/2)
+      for (int i = 0; i < 24; ++i) {
+        const double yaw = -1.6 + 3.2 * i / 23.0;
+        const sim::Pose2 pose{start_x + half_b * std::sin(yaw) * side, side * (half_b - half_b * std::cos(yaw)), yaw};
+        collector.addFrame(renderer.render({pose}, rng), "frame " + std::to_string(frames++));
+      }
+    }
+  }
+  std::vector<std::vector<cv::Point2f>> views;
+  for (const camera::CalibrationView& v : collector.views()) views.push_back(v.corners);
+  std::cout << frames << " frames, " << views.size() << " views kept\n";
+  ASSERT_GE(views.size(), 8u);
+
+  camera::CalibrationOptions options;
+  options.pattern_size = detector.pattern_size;
+  options.square_size_m = board.square_m;
+  const camera::CalibrationResult r = camera::calibrate(views, collector.imageSize(), options);
+  const sim::Intrinsics& truth = robot.camera.truth;
+  std::cout << "fx " << r.intrinsics.fx() << " (true " << truth.fx << "), fy " << r.intrinsics.fy() << " ("
+            << truth.fy << "), cx " << r.intrinsics.cx() << " (" << truth.cx << "), cy " << r.intrinsics.cy() << " ("
+            << truth.cy << "), k1 " << r.intrinsics.distortion[0] << " (" << truth.distortion_coefficients[0]
+            << "), k2 " << r.intrinsics.distortion[1] << " (" << truth.distortion_coefficients[1] << "), rms "
+            << r.rms_px << " px, " << r.fitted_terms << "\n";
+  EXPECT_NEAR(r.intrinsics.fx(), truth.fx, 0.01 * truth.fx);
+  EXPECT_NEAR(r.intrinsics.fy(), truth.fy, 0.01 * truth.fy);
+  EXPECT_NEAR(r.intrinsics.cx(), truth.cx, 4.0);
+  EXPECT_NEAR(r.intrinsics.cy(), truth.cy, 4.0);
+  EXPECT_NEAR(r.intrinsics.distortion[0], truth.distortion_coefficients[0], 0.03);
+  EXPECT_LT(r.rms_px, 0.5);
+  // The nominal model camera_info starts from is far off: the calibration is what brings it in.
+  EXPECT_GT(std::abs(robot.camera.nominal.fx - truth.fx), 0.03 * truth.fx);
+}
+
+}  // namespace

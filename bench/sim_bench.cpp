@@ -100,12 +100,18 @@ int main(int argc, char** argv) {
       options.noise_sigma = robot.camera.noise_sigma;
       Renderer renderer(robot.camera, world, options);
       std::mt19937_64 rng(3);
+      // Each frame is rendered 3 times and its best time kept: the machine is shared, and the
+      // best time is the one least disturbed.
       for (int i = 0; i < still_frames; ++i) {
         const Pose2 pose{0.0, 0.0, -M_PI + i * (2 * M_PI / still_frames)};
-        const Clock::time_point t0 = Clock::now();
-        const cv::Mat image = renderer.render({pose}, rng);
-        if (i >= 2) ms_by_ss[k].push_back(1000 * secondsSince(t0));  // the first two warm up
-        if (image.empty()) throw autocal::Error("empty render");
+        double best_s = 1e9;
+        for (int round = 0; round < 3; ++round) {
+          const Clock::time_point t0 = Clock::now();
+          const cv::Mat image = renderer.render({pose}, rng);
+          best_s = std::min(best_s, secondsSince(t0));
+          if (image.empty()) throw autocal::Error("empty render");
+        }
+        if (i >= 2) ms_by_ss[k].push_back(1000 * best_s);  // the first two warm up
       }
     }
     RenderOptions options;
@@ -140,7 +146,7 @@ int main(int argc, char** argv) {
     std::printf("## Simulator (issue 2)\n\n");
     std::printf("`build/bench/sim_bench` on one core (`taskset -c 0`, OpenCV threads off), default robot and world;\n"
                 "times are the thread's CPU time (robust to other load), real-time factors are simulated s per CPU s.\n");
-    std::printf("Render: %dx%d, %d still frames at headings all around the start pose.\n", robot.camera.truth.width,
+    std::printf("Render: %dx%d, %d still frames at headings all around the start pose, each the best of 3.\n", robot.camera.truth.width,
                 robot.camera.truth.height, still_frames - 2);
     std::printf("Real-time factor: %.0f s of simulated driving (pivots, straight runs; physics %.0f Hz, range %.0f Hz),\n"
                 "with the camera rendered and JPEG-encoded at %.0f Hz (motion blur when moving) and without it.\n\n",

@@ -4,6 +4,7 @@
 #include <apriltag/tag36h11.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -134,6 +135,11 @@ class Scene {
   inline void trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin, Rgb* color,
                     int* id) const;
 
+  /// True when no floor mark (tag, lane line) reaches into the rectangle [x0, x1] x [y0, y1]. A
+  /// block of pixels on the floor maps to a convex quad of the floor plane: when the quad's
+  /// bounding box holds no mark, the block holds no edge even where the floor grid is marked.
+  bool floorAreaHoldsNoMark(double x0, double x1, double y0, double y1) const;
+
   /// Prepares the per-bin lists of vertical quads for a camera at `origin` on a robot of this yaw.
   void prepare(const Eigen::Vector3d& origin, double yaw_rad) const;
 
@@ -154,6 +160,7 @@ class Scene {
   std::vector<VerticalQuad> quads_;
   std::vector<HorizontalRect> tops_;
   std::vector<FloorFeature> features_;
+  std::vector<std::array<double, 4>> feature_boxes_;  // x0, x1, y0, y1 of each feature
   std::vector<WallTexture> wall_textures_;
   // Floor feature grid.
   double grid_x0_ = 0, grid_y0_ = 0, grid_cell_ = 0.25, inv_grid_cell_ = 4.0;
@@ -322,6 +329,11 @@ Scene::Scene(const WorldConfig& world) : world_(world), floor_color_(rgb(world.f
     x1 = std::max(x1, f.c.x() + r);
     y1 = std::max(y1, f.c.y() + r);
   }
+  for (const FloorFeature& f : features_) {
+    const double ex = std::abs(f.u.x()) * f.hu + std::abs(f.u.y()) * f.hv;
+    const double ey = std::abs(f.u.y()) * f.hu + std::abs(f.u.x()) * f.hv;
+    feature_boxes_.push_back({f.c.x() - ex, f.c.x() + ex, f.c.y() - ey, f.c.y() + ey});
+  }
   if (!features_.empty()) {
     grid_x0_ = x0;
     grid_y0_ = y0;
@@ -415,6 +427,30 @@ Rgb Scene::floorColor(double x, double y, bool* marked) const {
     }
   }
   return floor_color_;
+}
+
+bool Scene::floorAreaHoldsNoMark(double x0, double x1, double y0, double y1) const {
+  if (grid_.empty()) return true;
+  constexpr double kMargin_m = 1e-3;  // the lens bends a block's edges by far less
+  x0 -= kMargin_m;
+  x1 += kMargin_m;
+  y0 -= kMargin_m;
+  y1 += kMargin_m;
+  const int ix0 = std::max(0, static_cast<int>(std::floor((x0 - grid_x0_) * inv_grid_cell_)));
+  const int ix1 = std::min(grid_nx_ - 1, static_cast<int>(std::floor((x1 - grid_x0_) * inv_grid_cell_)));
+  const int iy0 = std::max(0, static_cast<int>(std::floor((y0 - grid_y0_) * inv_grid_cell_)));
+  const int iy1 = std::min(grid_ny_ - 1, static_cast<int>(std::floor((y1 - grid_y0_) * inv_grid_cell_)));
+  if (ix0 > ix1 || iy0 > iy1) return true;            // beyond the grid: no marks there
+  if ((ix1 - ix0 + 1) * (iy1 - iy0 + 1) > 16) return false;  // a far, large footprint: do not bother
+  for (int iy = iy0; iy <= iy1; ++iy) {
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      for (int i : grid_[static_cast<size_t>(iy * grid_nx_ + ix)]) {
+        const std::array<double, 4>& b = feature_boxes_[static_cast<size_t>(i)];
+        if (b[0] <= x1 && b[1] >= x0 && b[2] <= y1 && b[3] >= y0) return false;
+      }
+    }
+  }
+  return true;
 }
 
 Rgb Scene::boardColor(const VerticalQuad& q, double s, double z, int* cell) const {
@@ -627,6 +663,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   color.resize(corner_dirs_.size());
   id.resize(corner_dirs_.size());
   traced_.resize(corner_dirs_.size());
+  corner_floor_xy_.resize(corner_dirs_.size());
   ++frame_;  // corners traced in this frame carry its number (no per-frame clearing)
 
   auto traceCorner = [&](size_t i) {
@@ -639,6 +676,11 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
     const Eigen::Vector3f& d = corner_dirs_[i];
     const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
     scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i]);
+    if (id[i] == (1 | kMarked)) {  // marked floor: keep where the ray meets it (see smoothCorners)
+      const double t = -origin.z() / dw.z();
+      corner_floor_xy_[i] = Eigen::Vector2f(static_cast<float>(origin.x() + t * dw.x()),
+                                            static_cast<float>(origin.y() + t * dw.y()));
+    }
   };
 
   const float thr = static_cast<float>(options_.edge_threshold);
@@ -699,8 +741,18 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   // traced corner by corner and shaded per pixel.
   const auto smoothCorners = [&](size_t a, size_t b, size_t e, size_t f) {
     const int block_id = id[a];
-    if (block_id < 0 || (block_id & kMarked) || id[b] != block_id || id[e] != block_id || id[f] != block_id) {
-      return false;
+    if (block_id < 0 || id[b] != block_id || id[e] != block_id || id[f] != block_id) return false;
+    if (block_id & kMarked) {
+      // Only the floor may still be blended: when no mark reaches into the block's footprint.
+      if (block_id != (1 | kMarked)) return false;
+      const Eigen::Vector2f &pa = corner_floor_xy_[a], &pb = corner_floor_xy_[b], &pe = corner_floor_xy_[e],
+                            &pf = corner_floor_xy_[f];
+      if (!scene_->floorAreaHoldsNoMark(std::min(std::min(pa.x(), pb.x()), std::min(pe.x(), pf.x())),
+                                        std::max(std::max(pa.x(), pb.x()), std::max(pe.x(), pf.x())),
+                                        std::min(std::min(pa.y(), pb.y()), std::min(pe.y(), pf.y())),
+                                        std::max(std::max(pa.y(), pb.y()), std::max(pe.y(), pf.y())))) {
+        return false;
+      }
     }
     const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
     const float rb_a = ca.r + ca.b, rb_b = cb.r + cb.b, rb_e = ce.r + ce.b, rb_f = cf.r + cf.b;
@@ -713,13 +765,16 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
     const float inv = 1.0f / static_cast<float>(n);
     for (int j = 0; j < n; ++j) {
       const float y = (static_cast<float>(j) + 0.5f) * inv;
+      // The row's ends, then steps along it.
+      const float lb = ca.b + (ce.b - ca.b) * y, lg = ca.g + (ce.g - ca.g) * y, lr = ca.r + (ce.r - ca.r) * y;
+      const float db = (cb.b + (cf.b - cb.b) * y - lb) * inv, dg = (cb.g + (cf.g - cb.g) * y - lg) * inv,
+                  dr = (cb.r + (cf.r - cb.r) * y - lr) * inv;
       float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
       for (int i = 0; i < n; ++i, out += 3) {
-        const float x = (static_cast<float>(i) + 0.5f) * inv;
-        const float wa = (1 - x) * (1 - y), wb = x * (1 - y), we = (1 - x) * y, wf = x * y;
-        out[0] += wa * ca.b + wb * cb.b + we * ce.b + wf * cf.b;
-        out[1] += wa * ca.g + wb * cb.g + we * ce.g + wf * cf.g;
-        out[2] += wa * ca.r + wb * cb.r + we * ce.r + wf * cf.r;
+        const float x = static_cast<float>(i) + 0.5f;
+        out[0] += lb + db * x;
+        out[1] += lg + dg * x;
+        out[2] += lr + dr * x;
       }
     }
   };

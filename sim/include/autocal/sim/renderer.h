@@ -75,6 +75,7 @@ class Renderer {
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;
+  mutable std::vector<Eigen::Vector2f> corner_floor_xy_;  // where a marked-floor corner's ray lands
   mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
   mutable uint32_t frame_ = 0;
   std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2

@@ -104,9 +104,9 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   left_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", 10);
   right_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", 10);
   range_pub_ = nh_.advertise<sensor_msgs::Range>("front_center_tof_driver_node/range", 10);
-  compressed_pub_ = nh_.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 2);
-  image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 2);
-  camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", 2);
+  compressed_pub_ = nh_.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 5);
+  image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 5);
+  camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", 5);
   ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", 10);
   status_pub_ = nh_.advertise<CalibrationStatus>("sim/status", 1, true);
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();

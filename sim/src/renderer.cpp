@@ -151,9 +151,6 @@ class Scene {
   Rgb boardColor(const VerticalQuad& q, double s, double z, int* cell) const;
   /// Wall colour at (s, z); *part tells the posters (1 + index) from the bare wall (0).
   Rgb wallColor(const VerticalQuad& q, double s, double z, int* part) const;
-  /// Colour and id of a hit: hit -1 nothing, -2 floor, -3 - k top k, >= 0 quad (at s along it).
-  inline void shadeHit(int hit, double t, double hit_s, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                       Rgb* color, int* id) const;
 
   WorldConfig world_;
   Rgb floor_color_;
@@ -520,11 +517,6 @@ inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uin
     best = t;
     hit = -3 - static_cast<int>(k);
   }
-  shadeHit(hit, best, hit_s, o, d, color, id);
-}
-
-inline void Scene::shadeHit(int hit, double best, double hit_s, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                            Rgb* color, int* id) const {
   if (hit == -1) {
     *color = kSky;
     *id = 0;

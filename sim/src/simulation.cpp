@@ -223,6 +223,24 @@ void Simulation::advance(double duration_s) {
   for (uint64_t i = 0; i < n; ++i) step();
 }
 
+Pose2 pivotPose(const Pose2& start, double wheelbase_m, Side stopped, double yaw_rad) {
+  const double half = (stopped == Side::kLeft ? 0.5 : -0.5) * wheelbase_m;  // contact, left of centre
+  const double cx = start.x_m - half * std::sin(start.yaw_rad), cy = start.y_m + half * std::cos(start.yaw_rad);
+  return {cx + half * std::sin(yaw_rad), cy - half * std::cos(yaw_rad), yaw_rad};
+}
+
+std::vector<Pose2> Simulation::exposurePoses(double capture_s, int max_samples) const {
+  const CameraConfig& camera = robot_.camera;
+  const double t0_s = capture_s - camera.exposure_s;
+  const std::vector<Pose2> ends = posesDuring(t0_s, capture_s, 2);
+  const double turn_rad = std::abs(std::remainder(ends[1].yaw_rad - ends[0].yaw_rad, 2 * M_PI));
+  const double shift_m = std::hypot(ends[1].x_m - ends[0].x_m, ends[1].y_m - ends[0].y_m);
+  // Image motion: the turn, plus the shift as seen on a surface 0.3 m away.
+  const double motion_px = camera.truth.fx * (turn_rad + shift_m / 0.3);
+  const int samples = std::clamp(static_cast<int>(std::ceil(motion_px)), 1, std::max(1, max_samples));
+  return posesDuring(t0_s, capture_s, samples);
+}
+
 std::vector<Pose2> Simulation::posesDuring(double t0_s, double t1_s, int samples) const {
   std::vector<Pose2> out;
   samples = std::max(samples, 1);

@@ -21,6 +21,7 @@
 #include "autocal/camera/view_selection.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
 
 using namespace autocal::camera;
 
@@ -118,10 +119,10 @@ int main(int argc, char** argv) {
   const autocal::sim::Renderer renderer(robot.camera, world, render);
   std::mt19937_64 rng(1);
   std::vector<cv::Mat> sim_frames;
-  const double half_b = 0.5 * robot.wheelbase;
   for (int i = 0; i < 36; ++i) {
-    const double yaw = -1.6 + 3.2 * i / 35.0;
-    const cv::Mat bgr = renderer.render({{half_b * std::sin(yaw), half_b - half_b * std::cos(yaw), yaw}}, rng);
+    const autocal::sim::Pose2 pose =
+        autocal::sim::pivotPose({}, robot.wheelbase, autocal::sim::Side::kLeft, -1.6 + 3.2 * i / 35.0);
+    const cv::Mat bgr = renderer.render({pose}, rng);
     cv::Mat gray;
     cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
     sim_frames.push_back(gray);

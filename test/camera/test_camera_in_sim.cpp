@@ -12,6 +12,7 @@
 #include "autocal/camera/view_selection.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
 
 namespace {
 
@@ -37,13 +38,11 @@ TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
 
   // Pivot on the stopped left wheel, then on the stopped right wheel, from two places.
   std::mt19937_64 rng(11);
-  const double half_b = 0.5 * robot.wheelbase;
   int frames = 0;
   for (const double start_x : {0.0, -0.12}) {
-    for (const double side : {1.0, -1.0}) {  // +1: about the left wheel at (x, +b/2)
+    for (const sim::Side stopped : {sim::Side::kLeft, sim::Side::kRight}) {
       for (int i = 0; i < 24; ++i) {
-        const double yaw = -1.6 + 3.2 * i / 23.0;
-        const sim::Pose2 pose{start_x + half_b * std::sin(yaw) * side, side * (half_b - half_b * std::cos(yaw)), yaw};
+        const sim::Pose2 pose = sim::pivotPose({start_x, 0, 0}, robot.wheelbase, stopped, -1.6 + 3.2 * i / 23.0);
         collector.addFrame(renderer.render({pose}, rng), "frame " + std::to_string(frames++));
       }
     }

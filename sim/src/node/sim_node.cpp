@@ -179,14 +179,7 @@ void SimNode::publishCamera(double capture_s) {
   camera_info_pub_.publish(info);
   if (!want_compressed && !want_raw) return;  // nobody looks: skip the rendering
 
-  // Motion blur: as many poses over the exposure as the image moves by pixels (at most
-  // max_blur_samples); a still robot is rendered once.
-  const std::vector<Pose2> ends = sim_->posesDuring(capture_s - exposure, capture_s, 2);
-  const double turn = std::abs(ends[1].yaw_rad - ends[0].yaw_rad);
-  const double shift = std::hypot(ends[1].x_m - ends[0].x_m, ends[1].y_m - ends[0].y_m);
-  const double motion_px = robot_.camera.truth.fx * (turn + shift / 0.3);
-  const int samples = std::clamp(static_cast<int>(std::ceil(motion_px)), 1, options_.max_blur_samples);
-  const cv::Mat image = renderer_->render(sim_->posesDuring(capture_s - exposure, capture_s, samples), camera_rng_);
+  const cv::Mat image = renderer_->render(sim_->exposurePoses(capture_s, options_.max_blur_samples), camera_rng_);
 
   if (want_compressed) {
     sensor_msgs::CompressedImage msg;

@@ -25,6 +25,10 @@ namespace sim {
 
 enum class Side { kLeft = 0, kRight = 1 };
 
+/// The pose of a robot that stood at `start` and has since pivoted on its stopped wheel to
+/// heading yaw_rad (the wheel's contact point stays where it was).
+Pose2 pivotPose(const Pose2& start, double wheelbase_m, Side stopped, double yaw_rad);
+
 struct SimulationOptions {
   double physics_rate_hz = 1000.0;
   int velocity_iterations = 8;
@@ -71,6 +75,10 @@ class Simulation {
 
   /// Robot poses at `samples` instants evenly spread over [t0_s, t1_s] (clamped to the history).
   std::vector<Pose2> posesDuring(double t0_s, double t1_s, int samples) const;
+  /// The poses a frame captured at capture_s is rendered from: as many over the camera's exposure
+  /// as the image moves by pixels (at most max_samples), so a still robot gives one pose and a
+  /// moving one a motion-blurred frame.
+  std::vector<Pose2> exposurePoses(double capture_s, int max_samples) const;
 
   /// Range sensor: the nearest obstacle over the sensor's cone [m] without noise; +inf when
   /// nothing is within max_range_m.

@@ -3,11 +3,12 @@ target_sources(autocal_core PRIVATE
   src/core/camera/chessboard.cpp
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp
-  src/core/camera/camera_config.cpp)
+  src/core/camera/camera_config.cpp
+  src/core/camera/calibration_files.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
-target_link_libraries(calibrate_camera autocal_core)
+target_link_libraries(calibrate_camera autocal_ros)
 target_compile_options(calibrate_camera PRIVATE ${AUTOCAL_WARNINGS})
 target_compile_definitions(calibrate_camera PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 autocal_ros_target(calibrate_camera)

@@ -17,7 +17,7 @@ if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_odometry_dead_reckoning
     SOURCES test/odometry/test_dead_reckoning.cpp LIBS autocal_core)
   autocal_core_gtest(test_odometry_umbmark
-    SOURCES test/odometry/test_umbmark.cpp LIBS autocal_core)
+    SOURCES test/odometry/test_umbmark.cpp LIBS autocal_core autocal_test_support)
   autocal_core_gtest(test_odometry_uah
     SOURCES test/odometry/test_uah.cpp LIBS autocal_core)
   autocal_core_gtest(test_odometry_calibration_file

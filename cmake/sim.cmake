@@ -20,13 +20,13 @@ endif()
 
 # The simulator node.
 add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp)
-target_link_libraries(sim_node autocal_sim_core)
+target_link_libraries(sim_node autocal_sim_core autocal_ros)
 autocal_ros_target(sim_node)
 
 if(CATKIN_ENABLE_TESTING)
   # rostests of the node: one test executable, each .test file runs some of its cases.
   add_rostest_gtest(test_sim_node test/sim/sim_topics.test test/sim/test_sim_node.cpp)
-  target_link_libraries(test_sim_node autocal_sim_core GTest::gtest)
+  target_link_libraries(test_sim_node autocal_sim_core autocal_ros GTest::gtest)
   autocal_ros_target(test_sim_node)
   target_compile_definitions(test_sim_node PRIVATE
     AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}" SIM_NODE_BIN="$<TARGET_FILE:sim_node>")

@@ -37,4 +37,10 @@ class IoError : public Error {
   using Error::Error;
 };
 
+/// A command was called with options it does not understand (exit code 64).
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace autocal

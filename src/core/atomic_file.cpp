@@ -31,7 +31,8 @@ void writeFileAtomically(const std::string& path, const std::string& contents,
   }
   std::string tmpl = (dir / ("." + target.filename().string() + ".tmpXXXXXX")).string();
   const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) throw IoError("cannot create a temporary file in '" + dir.string() + "': " + errnoText());
+  if (fd < 0)
+    throw IoError("cannot create a temporary file in '" + dir.string() + "': " + errnoText());
   const std::string tmp = tmpl;
   auto fail = [&](const std::string& what) {
     const std::string reason = errnoText();

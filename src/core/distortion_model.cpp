@@ -18,9 +18,11 @@ std::string distortionModelName(DistortionModel model) {
 
 DistortionModel parseDistortionModel(const std::string& name) {
   if (name == "plumb_bob") return DistortionModel::kPlumbBob;
-  if (name == "rational_polynomial" || name == "rational") return DistortionModel::kRationalPolynomial;
+  if (name == "rational_polynomial" || name == "rational")
+    return DistortionModel::kRationalPolynomial;
   if (name == "equidistant" || name == "fisheye") return DistortionModel::kEquidistant;
-  throw ConfigError("unknown distortion model '" + name + "' (expected plumb_bob, rational_polynomial or equidistant)");
+  throw ConfigError("unknown distortion model '" + name +
+                    "' (expected plumb_bob, rational_polynomial or equidistant)");
 }
 
 size_t distortionCoefficientCount(DistortionModel model) {

@@ -16,15 +16,29 @@ std::string where(const std::string& file, const YAML::Node& node) {
 template <typename T>
 const char* typeName();
 template <>
-const char* typeName<double>() { return "a number"; }
+const char* typeName<double>() {
+  return "a number";
+}
 template <>
-const char* typeName<int>() { return "an integer"; }
+const char* typeName<int>() {
+  return "an integer";
+}
 template <>
-const char* typeName<bool>() { return "true or false"; }
+const char* typeName<bool>() {
+  return "true or false";
+}
 template <>
-const char* typeName<std::string>() { return "a string"; }
+const char* typeName<std::string>() {
+  return "a string";
+}
 template <>
-const char* typeName<std::vector<double>>() { return "a list of numbers"; }
+const char* typeName<std::vector<double>>() {
+  return "a list of numbers";
+}
+template <>
+const char* typeName<std::vector<std::vector<double>>>() {
+  return "a list of lists of numbers";
+}
 }  // namespace
 
 YamlMap YamlMap::loadFile(const std::string& path) {
@@ -79,10 +93,15 @@ T YamlMap::convert(const std::string& key, const YAML::Node& value) const {
     if constexpr (std::is_same_v<T, std::vector<double>>) {
       if (!value.IsSequence()) throw YAML::Exception(value.Mark(), "");
       std::vector<double> out;
-      for (const auto& item : value) {
-        const double v = item.as<double>();
-        if (!std::isfinite(v)) fail(key, "every entry must be a finite number");
-        out.push_back(v);
+      for (size_t i = 0; i < value.size(); ++i) {
+        out.push_back(convert<double>(key + "[" + std::to_string(i) + "]", value[i]));
+      }
+      return out;
+    } else if constexpr (std::is_same_v<T, std::vector<std::vector<double>>>) {
+      if (!value.IsSequence()) throw YAML::Exception(value.Mark(), "");
+      std::vector<std::vector<double>> out;
+      for (size_t i = 0; i < value.size(); ++i) {
+        out.push_back(convert<std::vector<double>>(key + "[" + std::to_string(i) + "]", value[i]));
       }
       return out;
     } else {
@@ -94,8 +113,8 @@ T YamlMap::convert(const std::string& key, const YAML::Node& value) const {
       return v;
     }
   } catch (const YAML::Exception&) {
-    std::string got = value.IsScalar() ? "'" + value.Scalar() + "'"
-                                       : (value.IsSequence() ? "a list" : "a map");
+    std::string got =
+        value.IsScalar() ? "'" + value.Scalar() + "'" : (value.IsSequence() ? "a list" : "a map");
     fail(key, std::string("expected ") + typeName<T>() + ", got " + got);
   }
 }
@@ -166,6 +185,8 @@ template int YamlMap::optional<int>(const std::string&, const int&);
 template bool YamlMap::optional<bool>(const std::string&, const bool&);
 template std::string YamlMap::optional<std::string>(const std::string&, const std::string&);
 template std::vector<double> YamlMap::optional<std::vector<double>>(const std::string&,
-                                                                     const std::vector<double>&);
+                                                                    const std::vector<double>&);
+template std::vector<std::vector<double>> YamlMap::required<std::vector<std::vector<double>>>(
+    const std::string&);
 
 }  // namespace autocal

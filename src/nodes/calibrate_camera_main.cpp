@@ -3,15 +3,12 @@
 //   rosrun autocal calibrate_camera --bag FILE.bag --topic /veh/camera_node/image/compressed ...
 // Writes the camera_info YAML (camera_calibration_parsers, atomically) only when the result passes
 // the quality gate, and beside it FILE_views/ with the views used (image + corners) for audit.
-// Exit codes: 0 written; 1 bad input, config or file error; 2 calibration failed or refused by
-// the quality gate (nothing written); 64 bad command line.
-#include <camera_calibration_parsers/parse_yml.h>
+// Exit codes: the one table of README "Exit codes" (autocal/exit_codes.h).
 #include <cv_bridge/cv_bridge.h>
 #include <glob.h>
 #include <ros/package.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
-#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 
@@ -27,10 +24,12 @@
 #include <sstream>
 
 #include "autocal/camera/calibration.h"
+#include "autocal/camera/calibration_files.h"
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
-#include "autocal/io/atomic_file.h"
+#include "autocal/exit_codes.h"
+#include "autocal_ros/msg_conversion.h"
 
 namespace fs = std::filesystem;
 using namespace autocal;
@@ -43,10 +42,6 @@ const char* kUsage =
     "                        [--board 9x6] [--square 0.025] [--model "
     "plumb_bob|rational_polynomial|equidistant]\n"
     "                        [--config FILE] [--camera-name NAME] [--min-novelty X] [--holdout]\n";
-
-struct UsageError : Error {
-  using Error::Error;
-};
 
 struct Args {
   std::string images, bag, topic, out, config, model, camera_name = "camera", board;
@@ -151,113 +146,52 @@ void readBag(const std::string& path, const std::string& topic, const FrameSink&
   }
   const size_t total = view.size();
   size_t index = 0;
-  for (const rosbag::MessageInstance& m : view) {
-    char name[160];
-    std::snprintf(name, sizeof name, "%s@%.3f", topic.c_str(), m.getTime().toSec());
-    cv::Mat img;
-    if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
-      if (!c->data.empty()) img = cv::imdecode(c->data, cv::IMREAD_COLOR);
-    } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
-      try {
-        img = cv_bridge::toCvCopy(r, "bgr8")->image;
-      } catch (const cv_bridge::Exception&) {
+  try {
+    for (const rosbag::MessageInstance& m : view) {
+      char name[160];
+      std::snprintf(name, sizeof name, "%s@%.3f", topic.c_str(), m.getTime().toSec());
+      cv::Mat img;
+      if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
+        if (!c->data.empty()) img = cv::imdecode(c->data, cv::IMREAD_COLOR);
+      } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
+        try {
+          img = cv_bridge::toCvCopy(r, "bgr8")->image;
+        } catch (const cv_bridge::Exception&) {
+        }
+      } else {
+        throw InputError(path + ": topic '" + topic + "' carries " + m.getDataType() +
+                         ", not sensor_msgs/CompressedImage or sensor_msgs/Image");
       }
-    } else {
-      throw InputError(path + ": topic '" + topic + "' carries " + m.getDataType() +
-                       ", not sensor_msgs/CompressedImage or sensor_msgs/Image");
+      if (img.empty()) {
+        // A stream may carry a broken frame: refuse that frame, keep going.
+        undecodable.push_back(name);
+      } else {
+        sink(img, name, index, total);
+      }
+      ++index;
     }
-    if (img.empty()) {
-      // A stream may carry a broken frame: refuse that frame, keep going.
-      undecodable.push_back(name);
-    } else {
-      sink(img, name, index, total);
-    }
-    ++index;
+  } catch (const ros::Exception& e) {
+    // rosbag and deserialisation errors: a bag cut off or corrupt in the middle: what was read so
+    // far is not a complete input.
+    throw InputError(path + ": the bag is corrupt or truncated after " + std::to_string(index) +
+                     " of " + std::to_string(total) + " frames: " + e.what());
   }
   if (undecodable.size() == total)
     throw InputError(path + ": no frame on '" + topic + "' could be decoded");
-}
-
-sensor_msgs::CameraInfo toCameraInfo(const Intrinsics& in) {
-  sensor_msgs::CameraInfo ci;
-  ci.width = static_cast<uint32_t>(in.image_size.width);
-  ci.height = static_cast<uint32_t>(in.image_size.height);
-  ci.distortion_model = distortionModelName(in.model);
-  ci.D = in.distortion;
-  for (int i = 0; i < 9; ++i) ci.K[static_cast<size_t>(i)] = in.camera_matrix.val[i];
-  ci.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  // As ROS camera_calibration does for a monocular camera: P is the new camera matrix of the
-  // rectified image with alpha (balance) 0, i.e. only valid pixels.
-  cv::Mat p;
-  if (in.model == DistortionModel::kEquidistant) {
-    cv::fisheye::estimateNewCameraMatrixForUndistortRectify(cv::Mat(in.camera_matrix),
-                                                            cv::Mat(in.distortion), in.image_size,
-                                                            cv::Mat::eye(3, 3, CV_64F), p, 0.0);
-  } else {
-    p = cv::getOptimalNewCameraMatrix(cv::Mat(in.camera_matrix), cv::Mat(in.distortion),
-                                      in.image_size, 0.0);
-  }
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) ci.P[static_cast<size_t>(r * 4 + c)] = p.at<double>(r, c);
-  }
-  return ci;
-}
-
-std::string viewsDirFor(const std::string& out) {
-  fs::path p(out);
-  return (p.parent_path() / (p.stem().string() + "_views")).string();
-}
-
-// The views used, each as a lossless image and its corners, so the result can be audited and
-// recomputed; written before the calibration file itself.
-void saveViews(const std::string& dir, const std::vector<CalibrationView>& views,
-               const CalibrationResult& result, const std::map<int, cv::Mat>& frames,
-               const Args& args, const CameraCalibrationConfig& config) {
-  std::ostringstream y;
-  y.precision(10);
-  y << "# Views used by calibrate_camera for " << fs::path(args.out).filename().string()
-    << "; corners in pixels, pattern row-major order\n";
-  const cv::Size& pattern = config.calibration.pattern_size;
-  y << "board: {inner_corners: " << pattern.width << "x" << pattern.height
-    << ", square_size_m: " << config.calibration.square_size_m << "}\n";
-  y << "image: {width: " << result.intrinsics.image_size.width
-    << ", height: " << result.intrinsics.image_size.height << "}\n";
-  y << "distortion_model: " << distortionModelName(result.intrinsics.model) << "\n";
-  y << "rms_px: " << result.rms_px << "\nfitted_terms: \"" << result.fitted_terms
-    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\nviews:\n";
-  for (size_t u = 0; u < result.used_views.size(); ++u) {
-    const CalibrationView& v = views[static_cast<size_t>(result.used_views[u])];
-    char name[32];
-    std::snprintf(name, sizeof name, "view_%03zu.png", u);
-    std::vector<uchar> png;
-    if (!cv::imencode(".png", frames.at(v.frame_index), png))
-      throw IoError(std::string("cannot encode ") + name);
-    writeFileAtomically(dir + "/" + name, std::string(png.begin(), png.end()),
-                        AtomicWriteOptions{"", true});
-    y << "  - image: " << name << "\n    source: \"" << v.source
-      << "\"\n    rms_px: " << result.per_view_rms_px[u] << "\n    corners: [";
-    for (size_t c = 0; c < v.corners.size(); ++c) {
-      y << (c ? ", " : "") << "[" << v.corners[c].x << ", " << v.corners[c].y << "]";
-    }
-    y << "]\n";
-  }
-  writeFileAtomically(dir + "/views.yaml", y.str());
 }
 
 int run(const Args& args) {
   const auto t0 = std::chrono::steady_clock::now();
   CameraCalibrationConfig config =
       loadCameraCalibrationConfig(args.config.empty() ? defaultConfigPath() : args.config);
-  cv::Size pattern = config.detector.pattern_size;
-  double square = config.calibration.square_size_m;
-  if (!args.board.empty()) pattern = parseBoardSize(args.board);
-  if (args.square_m != 0) square = args.square_m;
-  config.setBoard(pattern, square);
+  if (!args.board.empty()) config.board.inner_corners = parseBoardSize(args.board);
+  if (args.square_m != 0) config.board.square_size_m = args.square_m;
+  const BoardSpec& board = config.board;
   if (!args.model.empty()) config.calibration.model = parseDistortionModel(args.model);
   if (args.min_novelty >= 0) config.selection.min_novelty = args.min_novelty;
   config.validate();
 
-  ViewCollector collector(config.detector, config.selection);
+  ViewCollector collector(board, config.detector, config.selection);
   std::map<int, cv::Mat> kept_frames;
   std::vector<std::string> refused;  // "name: reason"
   int frames_without_board = 0;
@@ -299,33 +233,34 @@ int run(const Args& args) {
   std::printf("coverage: %s\n", coverage.summary().c_str());
   const std::vector<CalibrationView>& views = collector.views();
   if (views.empty()) {
-    throw CalibrationError("no usable view of a " + std::to_string(pattern.width) + "x" +
-                           std::to_string(pattern.height) + " board in " +
+    throw CalibrationError("no usable view of a " + board.describe() + " board in " +
                            std::to_string(collector.frames()) +
                            " frames (check --board: inner corners, not squares)");
   }
   std::vector<std::vector<cv::Point2f>> corners;
   for (const auto& v : views) corners.push_back(v.corners);
   const auto t1 = std::chrono::steady_clock::now();
-  const CalibrationResult result = calibrate(corners, collector.imageSize(), config.calibration);
+  const CalibrationResult result =
+      calibrate(corners, collector.imageSize(), board, config.calibration);
   const auto t2 = std::chrono::steady_clock::now();
   const double seconds = std::chrono::duration<double>(t2 - t0).count();
 
-  const Intrinsics& in = result.intrinsics;
-  std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.model).c_str(),
+  const CameraIntrinsics& in = result.intrinsics;
+  std::printf("\nmodel: %s, fitted %s\n", distortionModelName(in.distortion_model).c_str(),
               result.fitted_terms.c_str());
-  std::printf("image: %dx%d\n", in.image_size.width, in.image_size.height);
+  std::printf("image: %dx%d\n", in.imageSize().width, in.imageSize().height);
   const auto sd = [&](size_t i) { return i < result.std_devs.size() ? result.std_devs[i] : 0.0; };
   if (result.std_devs.empty()) {
     // OpenCV's fisheye calibration reports no standard deviations.
-    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations for %s)\n", in.fx(),
-                in.fy(), in.cx(), in.cy(), distortionModelName(in.model).c_str());
+    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations for %s)\n", in.fx,
+                in.fy, in.cx, in.cy, distortionModelName(in.distortion_model).c_str());
   } else {
     std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
-                in.fx(), sd(0), in.fy(), sd(1), in.cx(), sd(2), in.cy(), sd(3));
+                in.fx, sd(0), in.fy, sd(1), in.cx, sd(2), in.cy, sd(3));
   }
   std::printf("distortion:");
-  for (size_t i = 0; i < in.distortion.size(); ++i) std::printf(" %.6f", in.distortion[i]);
+  for (size_t i = 0; i < in.distortion_coefficients.size(); ++i)
+    std::printf(" %.6f", in.distortion_coefficients[i]);
   std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);
   std::printf("views used: %zu of %zu kept views (%d frames)\n", result.used_views.size(),
               views.size(), collector.frames());
@@ -347,10 +282,10 @@ int run(const Args& args) {
               std::chrono::duration<double>(t2 - t1).count());
 
   if (args.holdout) {
-    const HoldoutEvaluation ours =
-        leaveOneOut(corners, collector.imageSize(), config.calibration, HoldoutMethod::kAutocal);
-    const HoldoutEvaluation plain = leaveOneOut(corners, collector.imageSize(), config.calibration,
-                                                HoldoutMethod::kPlainOpenCv);
+    const HoldoutEvaluation ours = leaveOneOut(corners, collector.imageSize(), board,
+                                               config.calibration, HoldoutMethod::kAutocal);
+    const HoldoutEvaluation plain = leaveOneOut(corners, collector.imageSize(), board,
+                                                config.calibration, HoldoutMethod::kPlainOpenCv);
     std::printf(
         "holdout: autocal %.4f px fx_spread %.3f px | plain_opencv %.4f px fx_spread %.3f px (%zu "
         "folds)\n",
@@ -364,13 +299,9 @@ int run(const Args& args) {
     for (const auto& f : failures) msg += "\n  " + f;
     throw CalibrationError(msg);
   }
-  std::ostringstream yaml;
-  if (!camera_calibration_parsers::writeCalibrationYml(yaml, args.camera_name, toCameraInfo(in))) {
-    throw IoError("camera_calibration_parsers could not format the calibration");
-  }
+  writeCameraCalibration(args.out, ros_layer::cameraInfoYaml(in, args.camera_name), board, result,
+                         views, kept_frames);
   const std::string views_dir = viewsDirFor(args.out);
-  saveViews(views_dir, views, result, kept_frames, args, config);
-  writeFileAtomically(args.out, yaml.str());
   std::printf("wrote %s and %s/\n", args.out.c_str(), views_dir.c_str());
   return 0;
 }
@@ -378,19 +309,6 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return run(parseArgs(argc, argv));
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "calibrate_camera: %s\n%s", e.what(), kUsage);
-    return 64;
-  } catch (const CalibrationError& e) {
-    std::fprintf(stderr, "calibrate_camera: calibration failed: %s\n", e.what());
-    return 2;
-  } catch (const Error& e) {
-    std::fprintf(stderr, "calibrate_camera: %s\n", e.what());
-    return 1;
-  } catch (const cv::Exception& e) {
-    std::fprintf(stderr, "calibrate_camera: OpenCV error: %s\n", e.what());
-    return 1;
-  }
+  return runCommand(
+      "calibrate_camera", [&] { return run(parseArgs(argc, argv)); }, kUsage);
 }

@@ -8,6 +8,8 @@
 #include <string>
 
 #include "autocal/errors.h"
+#include "autocal/exit_codes.h"
+#include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/umbmark.h"
 
@@ -39,7 +41,7 @@ double parseNumber(const std::string& flag, const std::string& text) {
     used = 0;
   }
   if (used != text.size() || !std::isfinite(v)) {
-    throw ConfigError(flag + ": expected a number, got '" + text + "'");
+    throw UsageError(flag + ": expected a number, got '" + text + "'");
   }
   return v;
 }
@@ -52,7 +54,7 @@ Args parseArgs(int argc, char** argv) {
       a.help = true;
       continue;
     }
-    if (i + 1 >= argc) throw ConfigError(flag + ": missing value (or unknown option)");
+    if (i + 1 >= argc) throw UsageError(flag + ": missing value (or unknown option)");
     const std::string value = argv[++i];
     if (flag == "--errors")
       a.errors_file = value;
@@ -67,21 +69,14 @@ Args parseArgs(int argc, char** argv) {
     else if (flag == "--veh")
       a.veh = value;
     else
-      throw ConfigError("unknown option " + flag);
+      throw UsageError("unknown option " + flag);
   }
   if (a.help) return a;
-  if (a.errors_file.empty()) throw ConfigError("--errors FILE.yaml is required");
-  if (std::isnan(a.side_m)) throw ConfigError("--side (the square's side, metres) is required");
-  if (std::isnan(a.wheelbase_m)) throw ConfigError("--wheelbase (nominal, metres) is required");
-  if (!a.out.empty() && a.veh.empty()) throw ConfigError("--out needs --veh NAME");
+  if (a.errors_file.empty()) throw UsageError("--errors FILE.yaml is required");
+  if (std::isnan(a.side_m)) throw UsageError("--side (the square's side, metres) is required");
+  if (std::isnan(a.wheelbase_m)) throw UsageError("--wheelbase (nominal, metres) is required");
+  if (!a.out.empty() && a.veh.empty()) throw UsageError("--out needs --veh NAME");
   return a;
-}
-
-std::string yamlNumber(double v) {
-  std::ostringstream ss;
-  ss.precision(10);
-  ss << v;
-  return ss.str();
 }
 
 int run(int argc, char** argv) {
@@ -104,7 +99,7 @@ int run(int argc, char** argv) {
   const DiffDriveMultipliers m = calibration.multipliers();
 
   std::ostringstream y;
-  auto kv = [&](const char* key, double v) { y << key << ": " << yamlNumber(v) << "\n"; };
+  auto kv = [&](const char* key, double v) { y << key << ": " << formatNumber(v) << "\n"; };
   y << "method: umbmark\n";
   y << "expressions: " << toString(r.expressions) << "\n";
   kv("side_m", options.side_m);
@@ -123,8 +118,8 @@ int run(int argc, char** argv) {
   kv("Ed", r.Ed);
   kv("Eb", r.Eb);
   kv("wheelbase_actual_m", r.wheelbase_actual_m);
-  kv("c_L", r.c_L);
-  kv("c_R", r.c_R);
+  kv("c_L", r.left_pulse_factor);
+  kv("c_R", r.right_pulse_factor);
   kv("left_wheel_radius_multiplier", m.left_wheel_radius_multiplier);
   kv("right_wheel_radius_multiplier", m.right_wheel_radius_multiplier);
   kv("wheel_separation_multiplier", m.wheel_separation_multiplier);
@@ -139,16 +134,6 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const autocal::ConfigError& e) {
-    std::cerr << "umbmark: error: " << e.what() << "\n" << kUsage;
-    return 2;
-  } catch (const autocal::Error& e) {
-    std::cerr << "umbmark: error: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "umbmark: unexpected error: " << e.what() << "\n";
-    return 3;
-  }
+  return autocal::runCommand(
+      "umbmark", [&] { return run(argc, argv); }, kUsage);
 }

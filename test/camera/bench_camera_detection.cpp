@@ -84,23 +84,24 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_camera_detection: images missing under %s\n", data.c_str());
     return 1;
   }
+  const BoardSpec photo_board;  // OpenCV's sample photos: 9x6
   ChessboardDetectorOptions one;
   one.max_boards = 1;
   ChessboardDetectorOptions multi;  // default: up to 4 boards
   int found = 0;
   const Timing board_one = timeFrames(with_board, rounds, [&](const cv::Mat& m) {
-    found += static_cast<int>(detectChessboards(m, one).size());
+    found += static_cast<int>(detectChessboards(m, photo_board, one).size());
   });
   const Timing board_multi =
-      timeFrames(with_board, rounds, [&](const cv::Mat& m) { detectChessboards(m, multi); });
+      timeFrames(with_board, rounds, [&](const cv::Mat& m) { detectChessboards(m, photo_board, multi); });
   const Timing none_multi = timeFrames(without, rounds, [&](const cv::Mat& m) {
-    found += static_cast<int>(detectChessboards(m, multi).size());
+    found += static_cast<int>(detectChessboards(m, photo_board, multi).size());
   });
   // The whole per-frame path of a kept view: detect, blur metric, diversity, refinement.
   const Timing kept = timeFrames(with_board, rounds, [&](const cv::Mat& m) {
     ViewSelectionOptions sel;
     sel.min_novelty = 0;
-    ViewCollector c(multi, sel);
+    ViewCollector c(photo_board, multi, sel);
     c.addFrame(m, "frame");
   });
   const auto line = [](const char* name, const Timing& t, size_t n) {
@@ -127,7 +128,9 @@ int main(int argc, char** argv) {
     cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
     sim_frames.push_back(gray);
   }
-  const cv::Size sim_board(world.chessboards.front().cols, world.chessboards.front().rows);
+  BoardSpec sim_board;
+  sim_board.inner_corners = cv::Size(world.chessboards.front().cols, world.chessboards.front().rows);
+  sim_board.square_size_m = world.chessboards.front().square_m;
   struct Variant {
     const char* name;
     bool precheck, adaptive;
@@ -136,12 +139,11 @@ int main(int argc, char** argv) {
                            Variant{"sim_frames_no_precheck", false, false},
                            Variant{"sim_frames_no_precheck_adaptive", false, true}}) {
     ChessboardDetectorOptions o = multi;
-    o.pattern_size = sim_board;
     o.half_resolution_precheck = v.precheck;
     o.adaptive_threshold = v.adaptive;
     int boards = 0;
-    for (const cv::Mat& m : sim_frames) boards += static_cast<int>(detectChessboards(m, o).size());
-    const Timing timed = timeFrames(sim_frames, rounds, [&](const cv::Mat& m) { detectChessboards(m, o); });
+    for (const cv::Mat& m : sim_frames) boards += static_cast<int>(detectChessboards(m, sim_board, o).size());
+    const Timing timed = timeFrames(sim_frames, rounds, [&](const cv::Mat& m) { detectChessboards(m, sim_board, o); });
     std::printf("%s %.2f %.2f %zu %d\n", v.name, timed.mean_ms, timed.max_ms, sim_frames.size(), boards);
   }
   std::printf("boards_found_check %d\n", found);

@@ -28,13 +28,12 @@ TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
   const sim::Renderer renderer(robot.camera, world, render);
 
   const sim::ChessboardConfig& board = world.chessboards.front();
+  camera::BoardSpec spec;
+  spec.inner_corners = cv::Size(board.cols, board.rows);
+  spec.square_size_m = board.square_m;
   camera::ChessboardDetectorOptions detector;
-  detector.pattern_size = cv::Size(board.cols, board.rows);
   detector.half_resolution_precheck = false;  // the robot's boards are small in its image
-  camera::ViewSelectionOptions selection;
-  selection.pattern_size = detector.pattern_size;
-  selection.square_size_m = board.square_m;
-  camera::ViewCollector collector(detector, selection);
+  camera::ViewCollector collector(spec, detector, camera::ViewSelectionOptions());
 
   // Pivot on the stopped left wheel, then on the stopped right wheel, from two places.
   std::mt19937_64 rng(11);
@@ -52,21 +51,19 @@ TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
   std::cout << frames << " frames, " << views.size() << " views kept\n";
   ASSERT_GE(views.size(), 8u);
 
-  camera::CalibrationOptions options;
-  options.pattern_size = detector.pattern_size;
-  options.square_size_m = board.square_m;
-  const camera::CalibrationResult r = camera::calibrate(views, collector.imageSize(), options);
+  const camera::CalibrationResult r =
+      camera::calibrate(views, collector.imageSize(), spec, camera::CalibrationOptions());
   const sim::Intrinsics& truth = robot.camera.truth;
-  std::cout << "fx " << r.intrinsics.fx() << " (true " << truth.fx << "), fy " << r.intrinsics.fy() << " ("
-            << truth.fy << "), cx " << r.intrinsics.cx() << " (" << truth.cx << "), cy " << r.intrinsics.cy() << " ("
-            << truth.cy << "), k1 " << r.intrinsics.distortion[0] << " (" << truth.distortion_coefficients[0]
-            << "), k2 " << r.intrinsics.distortion[1] << " (" << truth.distortion_coefficients[1] << "), rms "
+  std::cout << "fx " << r.intrinsics.fx << " (true " << truth.fx << "), fy " << r.intrinsics.fy << " ("
+            << truth.fy << "), cx " << r.intrinsics.cx << " (" << truth.cx << "), cy " << r.intrinsics.cy << " ("
+            << truth.cy << "), k1 " << r.intrinsics.distortion_coefficients[0] << " (" << truth.distortion_coefficients[0]
+            << "), k2 " << r.intrinsics.distortion_coefficients[1] << " (" << truth.distortion_coefficients[1] << "), rms "
             << r.rms_px << " px, " << r.fitted_terms << "\n";
-  EXPECT_NEAR(r.intrinsics.fx(), truth.fx, 0.01 * truth.fx);
-  EXPECT_NEAR(r.intrinsics.fy(), truth.fy, 0.01 * truth.fy);
-  EXPECT_NEAR(r.intrinsics.cx(), truth.cx, 4.0);
-  EXPECT_NEAR(r.intrinsics.cy(), truth.cy, 4.0);
-  EXPECT_NEAR(r.intrinsics.distortion[0], truth.distortion_coefficients[0], 0.03);
+  EXPECT_NEAR(r.intrinsics.fx, truth.fx, 0.01 * truth.fx);
+  EXPECT_NEAR(r.intrinsics.fy, truth.fy, 0.01 * truth.fy);
+  EXPECT_NEAR(r.intrinsics.cx, truth.cx, 4.0);
+  EXPECT_NEAR(r.intrinsics.cy, truth.cy, 4.0);
+  EXPECT_NEAR(r.intrinsics.distortion_coefficients[0], truth.distortion_coefficients[0], 0.03);
   EXPECT_LT(r.rms_px, 0.5);
   // The nominal model camera_info starts from is far off: the calibration is what brings it in.
   EXPECT_GT(std::abs(robot.camera.nominal.fx - truth.fx), 0.03 * truth.fx);

@@ -43,7 +43,7 @@ const Photos& loadPhotos() {
     ChessboardDetectorOptions det;
     ViewSelectionOptions sel;
     sel.min_novelty = 0.0;  // every photo: the figures below are over all 13
-    ViewCollector collector(det, sel);
+    ViewCollector collector(BoardSpec(), det, sel);
     for (const std::string& f : photos()) {
       const cv::Mat img = cv::imread(f, cv::IMREAD_GRAYSCALE);
       EXPECT_FALSE(img.empty()) << f;
@@ -51,7 +51,7 @@ const Photos& loadPhotos() {
       EXPECT_EQ(r.boards_found, 1) << f;
       EXPECT_TRUE(r.any_kept()) << f << ": " << (r.decisions.empty() ? "" : r.decisions[0].reason);
       std::vector<cv::Point2f> c;
-      cv::findChessboardCorners(img, det.pattern_size, c,
+      cv::findChessboardCorners(img, BoardSpec().inner_corners, c,
                                 cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
       cv::cornerSubPix(img, c, cv::Size(11, 11), cv::Size(-1, -1),
                        cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.1));
@@ -70,14 +70,14 @@ TEST(CameraRealPhotos, FocalLengthWithinTwoPercentOfOpenCvReference) {
   ASSERT_EQ(photos().size(), 13u) << "opencv-doc's left*.jpg are missing (make deps)";
   const Photos& p = loadPhotos();
   ASSERT_EQ(p.autocal_corners.size(), 13u);
-  const CalibrationResult r = calibrate(p.autocal_corners, p.size, CalibrationOptions());
+  const CalibrationResult r = calibrate(p.autocal_corners, p.size, BoardSpec(), CalibrationOptions());
   std::printf(
       "autocal: fx %.2f fy %.2f cx %.2f cy %.2f rms %.3f px, terms: %s, %zu views, %d corners "
       "dropped\n",
-      r.intrinsics.fx(), r.intrinsics.fy(), r.intrinsics.cx(), r.intrinsics.cy(), r.rms_px,
+      r.intrinsics.fx, r.intrinsics.fy, r.intrinsics.cx, r.intrinsics.cy, r.rms_px,
       r.fitted_terms.c_str(), r.used_views.size(), r.dropped_corners);
-  EXPECT_NEAR(r.intrinsics.fx(), kReferenceFx, 0.02 * kReferenceFx);
-  EXPECT_NEAR(r.intrinsics.fy(), kReferenceFx, 0.02 * kReferenceFx);
+  EXPECT_NEAR(r.intrinsics.fx, kReferenceFx, 0.02 * kReferenceFx);
+  EXPECT_NEAR(r.intrinsics.fy, kReferenceFx, 0.02 * kReferenceFx);
   EXPECT_TRUE(checkQuality(r, QualityGateOptions()).empty());
   ASSERT_EQ(r.std_devs.size(), 9u);
   EXPECT_GT(r.std_devs[0], 0.0);
@@ -90,12 +90,12 @@ TEST(CameraRealPhotos, HeldOutErrorNoWorseThanPlainOpenCv) {
   const CalibrationOptions options;
   const auto t0 = std::chrono::steady_clock::now();
   const HoldoutEvaluation ours =
-      leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kAutocal);
+      leaveOneOut(p.autocal_corners, p.size, BoardSpec(), options, HoldoutMethod::kAutocal);
   const auto t1 = std::chrono::steady_clock::now();
   const HoldoutEvaluation plain_same =
-      leaveOneOut(p.autocal_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
+      leaveOneOut(p.autocal_corners, p.size, BoardSpec(), options, HoldoutMethod::kPlainOpenCv);
   const HoldoutEvaluation plain_sample =
-      leaveOneOut(p.sample_corners, p.size, options, HoldoutMethod::kPlainOpenCv);
+      leaveOneOut(p.sample_corners, p.size, BoardSpec(), options, HoldoutMethod::kPlainOpenCv);
   std::printf(
       "leave-one-out held-out RMS [px]: autocal %.3f (fx spread %.2f px, %.1f s) | "
       "plain calibrateCamera on autocal's corners %.3f (spread %.2f) | "
@@ -116,11 +116,11 @@ TEST(CameraRealPhotos, TwoRealBoardsInOneFrameAreSeparated) {
   cv::Mat frame;
   cv::hconcat(a, b, frame);
   ChessboardDetectorOptions det;
-  std::vector<BoardDetection> boards = detectChessboards(frame, det);
+  std::vector<BoardDetection> boards = detectChessboards(frame, BoardSpec(), det);
   ASSERT_EQ(boards.size(), 2u);
   int left = 0, right = 0;
   for (BoardDetection& board : boards) {
-    refineCorners(frame, board, det);
+    refineCorners(frame, BoardSpec(), board, det);
     int in_left = 0;
     for (const auto& p : board.corners) in_left += p.x < a.cols;
     // All 54 corners on one side: never a mix of the two boards.

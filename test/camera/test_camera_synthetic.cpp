@@ -29,6 +29,13 @@ struct Truth {
   DistortionModel model = DistortionModel::kPlumbBob;
 };
 
+BoardSpec testBoard() {
+  BoardSpec b;
+  b.inner_corners = kPattern;
+  b.square_size_m = kSquare;
+  return b;
+}
+
 // Diverse poses: the board at 0.35..0.7 m, tilted up to ~40 degrees, centred at different places
 // of the image. Views that leave the image are skipped.
 std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, double noise_px,
@@ -36,7 +43,7 @@ std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, 
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1);
   std::normal_distribution<double> n(0, noise_px);
-  const std::vector<cv::Point3f> board = boardPoints(kPattern, kSquare);
+  const std::vector<cv::Point3f> board = testBoard().points();
   const cv::Point3f centre(4 * kSquare, 2.5 * kSquare, 0);
   std::vector<std::vector<cv::Point2f>> views;
   while (static_cast<int>(views.size()) < count) {
@@ -65,25 +72,20 @@ std::vector<std::vector<cv::Point2f>> syntheticViews(const Truth& t, int count, 
   return views;
 }
 
-CalibrationOptions options() {
-  CalibrationOptions o;
-  o.pattern_size = kPattern;
-  o.square_size_m = kSquare;
-  return o;
-}
+CalibrationOptions options() { return CalibrationOptions(); }
 
 }  // namespace
 
 TEST(CameraSynthetic, RecoversKnownPlumbBobIntrinsics) {
   const Truth t;
   const auto views = syntheticViews(t, 20, 0.1, 1);
-  const CalibrationResult r = calibrate(views, kImage, options());
-  EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.005);
-  EXPECT_NEAR(r.intrinsics.fy(), 421, 421 * 0.005);
-  EXPECT_NEAR(r.intrinsics.cx(), 322, 2.0);
-  EXPECT_NEAR(r.intrinsics.cy(), 238, 2.0);
-  EXPECT_NEAR(r.intrinsics.distortion[0], -0.25, 0.02);
-  EXPECT_NEAR(r.intrinsics.distortion[1], 0.07, 0.03);
+  const CalibrationResult r = calibrate(views, kImage, testBoard(), options());
+  EXPECT_NEAR(r.intrinsics.fx, 420, 420 * 0.005);
+  EXPECT_NEAR(r.intrinsics.fy, 421, 421 * 0.005);
+  EXPECT_NEAR(r.intrinsics.cx, 322, 2.0);
+  EXPECT_NEAR(r.intrinsics.cy, 238, 2.0);
+  EXPECT_NEAR(r.intrinsics.distortion_coefficients[0], -0.25, 0.02);
+  EXPECT_NEAR(r.intrinsics.distortion_coefficients[1], 0.07, 0.03);
   EXPECT_LT(r.rms_px, 0.15);
   EXPECT_EQ(r.used_views.size(), 20u);
   EXPECT_EQ(r.per_view_rms_px.size(), 20u);
@@ -97,14 +99,14 @@ TEST(CameraSynthetic, UnconstrainedK3IsHeldFixed) {
   // The truth has k3 = 0 and the views are noisy: fitting k3 only fits noise.
   const Truth t;
   const auto views = syntheticViews(t, 12, 0.3, 2);
-  const CalibrationResult r = calibrate(views, kImage, options());
+  const CalibrationResult r = calibrate(views, kImage, testBoard(), options());
   EXPECT_NE(r.fitted_terms.find("k3 fixed"), std::string::npos) << r.fitted_terms;
-  EXPECT_EQ(r.intrinsics.distortion[4], 0.0);
+  EXPECT_EQ(r.intrinsics.distortion_coefficients[4], 0.0);
   EXPECT_NE(r.selection_reason.find("k3 = "), std::string::npos) << r.selection_reason;
   // The same choice by held-out error.
   CalibrationOptions o = options();
   o.selection = CalibrationOptions::Selection::kHoldout;
-  const CalibrationResult h = calibrate(views, kImage, o);
+  const CalibrationResult h = calibrate(views, kImage, testBoard(), o);
   EXPECT_NE(h.fitted_terms.find("k3 fixed"), std::string::npos) << h.fitted_terms;
   EXPECT_GT(h.selection_holdout_rms_px, 0.0);
 }
@@ -114,9 +116,9 @@ TEST(CameraSynthetic, ConstrainedK3IsFitted) {
   Truth t;
   t.d = {-0.3, 0.1, 0.0, 0.0, 0.3};
   const auto views = syntheticViews(t, 25, 0.05, 11);
-  const CalibrationResult r = calibrate(views, kImage, options());
+  const CalibrationResult r = calibrate(views, kImage, testBoard(), options());
   EXPECT_EQ(r.fitted_terms, "k1 k2 p1 p2 k3") << r.selection_reason;
-  EXPECT_NEAR(r.intrinsics.distortion[4], 0.3, 0.1);
+  EXPECT_NEAR(r.intrinsics.distortion_coefficients[4], 0.3, 0.1);
 }
 
 TEST(CameraSynthetic, RationalAndFisheyeOptions) {
@@ -124,10 +126,10 @@ TEST(CameraSynthetic, RationalAndFisheyeOptions) {
     const Truth t;
     CalibrationOptions o = options();
     o.model = DistortionModel::kRationalPolynomial;
-    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 3), kImage, o);
-    EXPECT_EQ(r.intrinsics.distortion.size(), 8u);
-    EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.01);
-    EXPECT_EQ(distortionModelName(r.intrinsics.model), "rational_polynomial");
+    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 3), kImage, testBoard(), o);
+    EXPECT_EQ(r.intrinsics.distortion_coefficients.size(), 8u);
+    EXPECT_NEAR(r.intrinsics.fx, 420, 420 * 0.01);
+    EXPECT_EQ(distortionModelName(r.intrinsics.distortion_model), "rational_polynomial");
   }
   {
     Truth t;
@@ -135,12 +137,12 @@ TEST(CameraSynthetic, RationalAndFisheyeOptions) {
     t.d = {0.05, -0.02, 0.0, 0.0};
     CalibrationOptions o = options();
     o.model = DistortionModel::kEquidistant;
-    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 4), kImage, o);
-    EXPECT_EQ(r.intrinsics.distortion.size(), 4u);
-    EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.01);
-    EXPECT_NEAR(r.intrinsics.distortion[0], 0.05, 0.02);
+    const CalibrationResult r = calibrate(syntheticViews(t, 20, 0.1, 4), kImage, testBoard(), o);
+    EXPECT_EQ(r.intrinsics.distortion_coefficients.size(), 4u);
+    EXPECT_NEAR(r.intrinsics.fx, 420, 420 * 0.01);
+    EXPECT_NEAR(r.intrinsics.distortion_coefficients[0], 0.05, 0.02);
     EXPECT_LT(r.rms_px, 0.2);
-    EXPECT_EQ(distortionModelName(r.intrinsics.model), "equidistant");
+    EXPECT_EQ(distortionModelName(r.intrinsics.distortion_model), "equidistant");
   }
 }
 
@@ -154,12 +156,12 @@ TEST(CameraSynthetic, OutlierViewAndCornerAreDropped) {
     p.y += static_cast<float>(n(rng));
   }
   views[8][20].x += 6.0f;  // one corner pulled off by 6 px
-  const CalibrationResult r = calibrate(views, kImage, options());
+  const CalibrationResult r = calibrate(views, kImage, testBoard(), options());
   ASSERT_EQ(r.dropped_views.size(), 1u);
   EXPECT_EQ(r.dropped_views[0].index, 3);
   EXPECT_NE(r.dropped_views[0].reason.find("outlier view"), std::string::npos);
   EXPECT_GE(r.dropped_corners, 1);
-  EXPECT_NEAR(r.intrinsics.fx(), 420, 420 * 0.005);
+  EXPECT_NEAR(r.intrinsics.fx, 420, 420 * 0.005);
   EXPECT_LT(r.rms_px, 0.15);
 }
 
@@ -168,7 +170,7 @@ TEST(CameraSynthetic, DegenerateInputsAreRefusedWithAReason) {
   const auto views = syntheticViews(t, 12, 0.1, 6);
   // Too few views.
   try {
-    calibrate({views.begin(), views.begin() + 3}, kImage, options());
+    calibrate({views.begin(), views.begin() + 3}, kImage, testBoard(), options());
     FAIL() << "3 views accepted";
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("too few views"), std::string::npos) << e.what();
@@ -183,7 +185,7 @@ TEST(CameraSynthetic, DegenerateInputsAreRefusedWithAReason) {
     alike.push_back(v);
   }
   try {
-    calibrate(alike, kImage, options());
+    calibrate(alike, kImage, testBoard(), options());
     FAIL() << "identical views accepted";
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("views all alike"), std::string::npos) << e.what();
@@ -192,7 +194,7 @@ TEST(CameraSynthetic, DegenerateInputsAreRefusedWithAReason) {
   auto with_nan = views;
   with_nan[5][7].x = std::numeric_limits<float>::quiet_NaN();
   try {
-    calibrate(with_nan, kImage, options());
+    calibrate(with_nan, kImage, testBoard(), options());
     FAIL() << "NaN accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("view 5: corner 7 is NaN"), std::string::npos) << e.what();
@@ -200,7 +202,7 @@ TEST(CameraSynthetic, DegenerateInputsAreRefusedWithAReason) {
   // Wrong corner count.
   auto short_view = views;
   short_view[2].pop_back();
-  EXPECT_THROW(calibrate(short_view, kImage, options()), InputError);
+  EXPECT_THROW(calibrate(short_view, kImage, testBoard(), options()), InputError);
 }
 
 TEST(CameraSynthetic, QualityGateRefusesNoisyResult) {
@@ -209,7 +211,7 @@ TEST(CameraSynthetic, QualityGateRefusesNoisyResult) {
   CalibrationOptions o = options();
   o.outlier_view_min_px = 100;  // keep every view: test the gate, not the outlier filter
   o.outlier_corner_min_px = 100;
-  const CalibrationResult r = calibrate(views, kImage, o);
+  const CalibrationResult r = calibrate(views, kImage, testBoard(), o);
   const auto reasons = checkQuality(r, QualityGateOptions());
   ASSERT_FALSE(reasons.empty());
   EXPECT_NE(reasons[0].find("RMS reprojection error"), std::string::npos) << reasons[0];
@@ -220,7 +222,7 @@ TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
   const auto views = syntheticViews(t, 60, 0.1, 12);
   ViewSelectionOptions sel;
   sel.min_novelty = 0.05;
-  ViewCollector collector{ChessboardDetectorOptions(), sel};
+  ViewCollector collector{testBoard(), ChessboardDetectorOptions(), sel};
   int kept = 0;
   bool sufficient_before_max = false;
   for (size_t i = 0; i < views.size(); ++i) {
@@ -239,7 +241,7 @@ TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
   EXPECT_FALSE(extra.kept);
   EXPECT_NE(extra.reason.find("enough views"), std::string::npos) << extra.reason;
   // A blurred view is refused before anything else is judged.
-  ViewCollector fresh{ChessboardDetectorOptions(), sel};
+  ViewCollector fresh{testBoard(), ChessboardDetectorOptions(), sel};
   const ViewDecision blurred = fresh.addView(views[0], kImage, 9.0, "blurred");
   EXPECT_FALSE(blurred.kept);
   EXPECT_NE(blurred.reason.find("blurred"), std::string::npos) << blurred.reason;
@@ -248,9 +250,9 @@ TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
 TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
   const Truth t;
   const auto views = syntheticViews(t, 10, 0.2, 10);
-  const HoldoutEvaluation ours = leaveOneOut(views, kImage, options(), HoldoutMethod::kAutocal);
+  const HoldoutEvaluation ours = leaveOneOut(views, kImage, testBoard(), options(), HoldoutMethod::kAutocal);
   const HoldoutEvaluation plain =
-      leaveOneOut(views, kImage, options(), HoldoutMethod::kPlainOpenCv);
+      leaveOneOut(views, kImage, testBoard(), options(), HoldoutMethod::kPlainOpenCv);
   EXPECT_EQ(ours.fold_rms_px.size(), 10u);
   EXPECT_LT(ours.mean_rms_px, 0.35);
   EXPECT_LE(ours.mean_rms_px, plain.mean_rms_px * 1.05);
@@ -323,9 +325,9 @@ TEST(CameraImages, SubPixelCornersOfARenderedBoard) {
   cv::Mat frame = background();
   const auto truth = renderBoard(frame, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
   ChessboardDetectorOptions det;
-  auto boards = detectChessboards(frame, det);
+  auto boards = detectChessboards(frame, BoardSpec(), det);
   ASSERT_EQ(boards.size(), 1u);
-  refineCorners(frame, boards[0], det);
+  refineCorners(frame, BoardSpec(), boards[0], det);
   EXPECT_LT(maxError(boards[0].corners, truth), 0.15);
 }
 
@@ -335,11 +337,11 @@ TEST(CameraImages, TwoBoardsInOneFrameAreNeverMixed) {
   const auto left = renderBoard(frame, {{75, 110}, {295, 130}, {290, 320}, {80, 300}});
   const auto right = renderBoard(frame, {{375, 150}, {570, 125}, {575, 330}, {370, 350}});
   ChessboardDetectorOptions det;
-  auto boards = detectChessboards(frame, det);
+  auto boards = detectChessboards(frame, BoardSpec(), det);
   ASSERT_EQ(boards.size(), 2u);
   int matched_left = 0, matched_right = 0;
   for (auto& b : boards) {
-    refineCorners(frame, b, det);
+    refineCorners(frame, BoardSpec(), b, det);
     // Every corner of one detection belongs to the same physical board (either corner order).
     auto reversed = b.corners;
     std::reverse(reversed.begin(), reversed.end());
@@ -355,7 +357,7 @@ TEST(CameraImages, TwoBoardsInOneFrameAreNeverMixed) {
 TEST(CameraImages, NoBoardNoDetection) {
   cv::Mat frame = background();
   cv::randn(frame, 128, 30);
-  EXPECT_TRUE(detectChessboards(frame, ChessboardDetectorOptions()).empty());
+  EXPECT_TRUE(detectChessboards(frame, BoardSpec(), ChessboardDetectorOptions()).empty());
 }
 
 TEST(CameraImages, BlurredViewIsRefused) {
@@ -365,14 +367,14 @@ TEST(CameraImages, BlurredViewIsRefused) {
   cv::GaussianBlur(sharp, blurred, cv::Size(0, 0), 3.0);
   // Horizontal motion blur over 12 px.
   cv::blur(sharp, motion, cv::Size(12, 1));
-  const auto corners = detectChessboards(sharp, ChessboardDetectorOptions())[0].corners;
+  const auto corners = detectChessboards(sharp, BoardSpec(), ChessboardDetectorOptions())[0].corners;
   const double w_sharp = edgeWidthPx(sharp, corners), w_blur = edgeWidthPx(blurred, corners),
                w_motion = edgeWidthPx(motion, corners);
   EXPECT_LT(w_sharp, 3.0);
   EXPECT_GT(w_blur, 6.0);
   EXPECT_GT(w_motion, 6.0);
 
-  ViewCollector collector{ChessboardDetectorOptions(), ViewSelectionOptions()};
+  ViewCollector collector{BoardSpec(), ChessboardDetectorOptions(), ViewSelectionOptions()};
   const FrameResult r = collector.addFrame(blurred, "blurred");
   ASSERT_EQ(r.decisions.size(), 1u) << "the detector should still find the blurred board";
   EXPECT_FALSE(r.decisions[0].kept);
@@ -381,7 +383,7 @@ TEST(CameraImages, BlurredViewIsRefused) {
 }
 
 TEST(CameraImages, FramesOneAtATimeKeepOnlyNewViewsAndReportCoverage) {
-  ViewCollector collector{ChessboardDetectorOptions(), ViewSelectionOptions()};
+  ViewCollector collector{BoardSpec(), ChessboardDetectorOptions(), ViewSelectionOptions()};
   cv::Mat a = background();
   renderBoard(a, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
   EXPECT_TRUE(collector.addFrame(a, "a").any_kept());
@@ -403,8 +405,8 @@ TEST(CameraConfig, ShippedConfigLoadsAndMatchesDefaults) {
   const auto c = loadCameraCalibrationConfig(std::string(AUTOCAL_SOURCE_DIR) +
                                              "/config/camera_calibration.yaml");
   const CameraCalibrationConfig d;
-  EXPECT_EQ(c.detector.pattern_size, d.detector.pattern_size);
-  EXPECT_EQ(c.calibration.square_size_m, d.calibration.square_size_m);
+  EXPECT_EQ(c.board.inner_corners, d.board.inner_corners);
+  EXPECT_EQ(c.board.square_size_m, d.board.square_size_m);
   EXPECT_EQ(c.detector.refine_window_ratio, d.detector.refine_window_ratio);
   EXPECT_EQ(c.selection.min_novelty, d.selection.min_novelty);
   EXPECT_EQ(c.selection.goal_spread, d.selection.goal_spread);

@@ -23,8 +23,8 @@ OdometryCalibration sample() {
   c.Eb = 1.03;
   c.wheelbase_nominal_m = 0.1;
   c.wheelbase_m = 0.103;
-  c.c_L = 0.999;
-  c.c_R = 1.001;
+  c.left_pulse_factor = 0.999;
+  c.right_pulse_factor = 1.001;
   c.left_m_per_pulse = 0.0015;
   c.right_m_per_pulse = 0.0016;
   c.inputs = {{"rounds", "5"}, {"note", "'a b'"}};

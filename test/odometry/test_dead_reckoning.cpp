@@ -18,7 +18,7 @@ TEST(DeadReckoning, StraightRunMovesAlongHeading) {
   dr.addPulses(1000, 1000);
   EXPECT_NEAR(dr.pose().x_m, 1000 * p.left_m_per_pulse, 1e-12);
   EXPECT_NEAR(dr.pose().y_m, 0.0, 1e-12);
-  EXPECT_NEAR(dr.pose().theta_rad, 0.0, 1e-12);
+  EXPECT_NEAR(dr.pose().yaw_rad, 0.0, 1e-12);
   EXPECT_NEAR(dr.distance_m(), 1000 * p.left_m_per_pulse, 1e-12);
 }
 
@@ -26,7 +26,7 @@ TEST(DeadReckoning, SpinInPlaceTurnsWithoutMoving) {
   const DiffDriveParams p = duckiebot();
   DeadReckoning dr(p);
   dr.addPulses(-100, 100);
-  EXPECT_NEAR(dr.pose().theta_rad, 200 * p.left_m_per_pulse / p.wheelbase_m, 1e-12);
+  EXPECT_NEAR(dr.pose().yaw_rad, 200 * p.left_m_per_pulse / p.wheelbase_m, 1e-12);
   EXPECT_NEAR(dr.pose().x_m, 0.0, 1e-12);
   EXPECT_NEAR(dr.pose().y_m, 0.0, 1e-12);
 }
@@ -41,7 +41,7 @@ TEST(DeadReckoning, ExactArcMatchesTheCircleInOneStep) {
   dr.addPulses(nl, nr);
   EXPECT_NEAR(dr.pose().x_m, R * std::sin(th), 1e-12);
   EXPECT_NEAR(dr.pose().y_m, R * (1 - std::cos(th)), 1e-12);
-  EXPECT_NEAR(dr.pose().theta_rad, th, 1e-12);
+  EXPECT_NEAR(dr.pose().yaw_rad, th, 1e-12);
 }
 
 TEST(DeadReckoning, ExactIsIndependentOfStepSizeAndOthersConvergeToIt) {

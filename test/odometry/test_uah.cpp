@@ -63,7 +63,7 @@ Scene squareRoom(Vec centre) {
 const Vec kPivotWorld{0.05, -0.1};  // where turnSignal's centre of rotation stands
 
 struct Robot {
-  double c_L = 0, c_R = 0;  // true distance per pulse [m]
+  double left_m_per_pulse = 0, right_m_per_pulse = 0;  // true distance per pulse [m]
   double b = 0;             // true effective wheelbase [m]
   double b_pivot = 0;       // pivot-to-moving-wheel distance with the pivot piece [m]
   Vec sensor{0.08, 0.02};   // range sensor in the robot frame, looking forward
@@ -72,8 +72,8 @@ struct Robot {
 Robot knownRobot() {
   const DiffDriveParams nominal = DiffDriveParams::fromWheel(0.066, 135, 0.102);
   Robot r;
-  r.c_L = nominal.left_m_per_pulse * 0.999;
-  r.c_R = nominal.right_m_per_pulse * 1.004;
+  r.left_m_per_pulse = nominal.left_m_per_pulse * 0.999;
+  r.right_m_per_pulse = nominal.right_m_per_pulse * 1.004;
   r.b = 0.104;
   r.b_pivot = 0.104 * 1.03;
   return r;
@@ -104,16 +104,16 @@ std::vector<RangeSample> turnSignal(const Robot& r, const Scene& scene, Turn tur
   switch (turn) {
     case Turn::kPivotLeftStopped:      // right wheel moves forward, robot turns left about a
       icr = {0, r.b_pivot - r.b / 2};  // point b_pivot from the right wheel
-      pulses_per_rad = r.b_pivot / r.c_R;
+      pulses_per_rad = r.b_pivot / r.right_m_per_pulse;
       break;
     case Turn::kPivotRightStopped:  // left wheel moves forward, robot turns right
       icr = {0, -(r.b_pivot - r.b / 2)};
-      pulses_per_rad = r.b_pivot / r.c_L;
+      pulses_per_rad = r.b_pivot / r.left_m_per_pulse;
       sign = -1;
       break;
     case Turn::kSpin:  // both wheels at the same pulse rate, opposite; right one counted
-      icr = {0, 0.5 * r.b * (r.c_R - r.c_L) / (r.c_R + r.c_L)};
-      pulses_per_rad = r.b / (r.c_R + r.c_L);
+      icr = {0, 0.5 * r.b * (r.right_m_per_pulse - r.left_m_per_pulse) / (r.right_m_per_pulse + r.left_m_per_pulse)};
+      pulses_per_rad = r.b / (r.right_m_per_pulse + r.left_m_per_pulse);
       break;
   }
   const Vec pivot_world = kPivotWorld;
@@ -155,8 +155,8 @@ const double kSpinExpected = M_PI * kNominal.wheelbase_m / kNominal.right_m_per_
 TEST(UahRoundDetection, FindsPulsesPerRoundWithinOnePulse) {
   const Robot r = knownRobot();
   const Scene scene = irregularRoom();
-  const double truths[] = {2 * M_PI * r.b_pivot / r.c_R, 2 * M_PI * r.b_pivot / r.c_L,
-                           2 * M_PI * r.b / (r.c_R + r.c_L)};
+  const double truths[] = {2 * M_PI * r.b_pivot / r.right_m_per_pulse, 2 * M_PI * r.b_pivot / r.left_m_per_pulse,
+                           2 * M_PI * r.b / (r.right_m_per_pulse + r.left_m_per_pulse)};
   const Turn turns[] = {Turn::kPivotLeftStopped, Turn::kPivotRightStopped, Turn::kSpin};
   double worst = 0, worst_single = 0;
   for (int i = 0; i < 3; ++i) {
@@ -187,7 +187,7 @@ TEST(UahRoundDetection, HeavierNoiseAndDropouts) {
     so.seed = seed;
     const auto det = detectWholeRound(turnSignal(r, irregularRoom(), Turn::kPivotLeftStopped, so),
                                       detectionOptions(kPivotExpected));
-    worst = std::max(worst, std::abs(det.pulses_per_round - 2 * M_PI * r.b_pivot / r.c_R));
+    worst = std::max(worst, std::abs(det.pulses_per_round - 2 * M_PI * r.b_pivot / r.right_m_per_pulse));
   }
   std::printf("[ figures  ] 3 cm noise, 20 %% dropouts, 3 rounds: worst %.3f pulses\n", worst);
   EXPECT_LT(worst, 1.0);
@@ -217,7 +217,7 @@ TEST(UahRoundDetection, ASquareRoomOffCentreIsStillResolved) {
   SignalOptions so;
   const auto det = detectWholeRound(turnSignal(r, squareRoom({0, 0}), Turn::kSpin, so),
                                     detectionOptions(kSpinExpected));
-  EXPECT_NEAR(det.pulses_per_round, 2 * M_PI * r.b / (r.c_R + r.c_L), 1.0);
+  EXPECT_NEAR(det.pulses_per_round, 2 * M_PI * r.b / (r.right_m_per_pulse + r.left_m_per_pulse), 1.0);
   EXPECT_LT(det.secondary_correlation, 0.8 * det.peak_correlation);
 }
 
@@ -289,11 +289,11 @@ StraightRun straightRun(const Robot& r, double length_m, double wobble_rad, unsi
     sr += ds * (1 + kappa * r.b / 2);
     s += ds;
     worst = std::max(worst, std::abs(th));
-    pulses_out->push_back({std::floor(sl / r.c_L), std::floor(sr / r.c_R)});
+    pulses_out->push_back({std::floor(sl / r.left_m_per_pulse), std::floor(sr / r.right_m_per_pulse)});
   }
   StraightRun run;
   run.length_m = std::hypot(x, y) + tape(rng);
-  run.right_pulses = std::floor(sr / r.c_R);
+  run.right_pulses = std::floor(sr / r.right_m_per_pulse);
   run.max_heading_deviation_rad = worst;
   return run;
 }
@@ -310,10 +310,10 @@ TEST(UahStraightRun, RejectsRunsThatStrayAndAveragesTheRest) {
   ASSERT_EQ(e.rejected_runs.size(), 1u);
   EXPECT_EQ(e.rejected_runs[0], 4);
   EXPECT_NE(e.rejection_reasons[0].find("heading deviated"), std::string::npos);
-  EXPECT_NEAR(e.right_m_per_pulse / r.c_R, 1.0, 0.003);
+  EXPECT_NEAR(e.right_m_per_pulse / r.right_m_per_pulse, 1.0, 0.003);
   // The rejected run alone would be off by far more than the accepted ones.
   const double wrong = runs[4].length_m / runs[4].right_pulses;
-  EXPECT_GT(std::abs(wrong / r.c_R - 1), std::abs(e.right_m_per_pulse / r.c_R - 1));
+  EXPECT_GT(std::abs(wrong / r.right_m_per_pulse - 1), std::abs(e.right_m_per_pulse / r.right_m_per_pulse - 1));
   EXPECT_THROW(estimateMmPerPulse({runs[4]}), autocal::CalibrationError);
   EXPECT_THROW(estimateMmPerPulse({}), autocal::InputError);
 }
@@ -323,22 +323,22 @@ TEST(UahStraightRun, HeadingDeviationFromEncoderPulses) {
   std::vector<std::pair<double, double>> pulses;
   const StraightRun run = straightRun(r, 3.0, 0.05, 1, &pulses);
   DiffDriveParams p;
-  p.left_m_per_pulse = r.c_L;
-  p.right_m_per_pulse = r.c_R;
+  p.left_m_per_pulse = r.left_m_per_pulse;
+  p.right_m_per_pulse = r.right_m_per_pulse;
   p.wheelbase_m = r.b;
   // Heading from encoders is quantised: one pulse of one wheel is c/b ≈ 0.015 rad (0.85°).
-  EXPECT_NEAR(maxHeadingDeviationRad(pulses, p), run.max_heading_deviation_rad, 1.05 * r.c_R / r.b);
+  EXPECT_NEAR(maxHeadingDeviationRad(pulses, p), run.max_heading_deviation_rad, 1.05 * r.right_m_per_pulse / r.b);
 }
 
 TEST(UahWheelbase, SpinVersusPivot) {
   const Robot r = knownRobot();
-  const double spin = 2 * M_PI * r.b / (r.c_R + r.c_L);
-  const double pivot = 2 * M_PI * r.b_pivot / r.c_R;
-  const WheelbaseEstimate w = estimateWheelbase(spin, pivot, r.c_L, r.c_R);
+  const double spin = 2 * M_PI * r.b / (r.right_m_per_pulse + r.left_m_per_pulse);
+  const double pivot = 2 * M_PI * r.b_pivot / r.right_m_per_pulse;
+  const WheelbaseEstimate w = estimateWheelbase(spin, pivot, r.left_m_per_pulse, r.right_m_per_pulse);
   EXPECT_NEAR(w.wheelbase_m, r.b, 1e-12);
   EXPECT_NEAR(w.pivot_radius_m, r.b_pivot, 1e-12);
-  EXPECT_NEAR(w.pivot_to_spin_ratio, 2 * 1.03 * (r.c_R + r.c_L) / (2 * r.c_R), 1e-9);
-  EXPECT_THROW(estimateWheelbase(0, pivot, r.c_L, r.c_R), autocal::InputError);
+  EXPECT_NEAR(w.pivot_to_spin_ratio, 2 * 1.03 * (r.right_m_per_pulse + r.left_m_per_pulse) / (2 * r.right_m_per_pulse), 1e-9);
+  EXPECT_THROW(estimateWheelbase(0, pivot, r.left_m_per_pulse, r.right_m_per_pulse), autocal::InputError);
 }
 
 TEST(Uah, WholeMethodOnSyntheticSignalsMeetsTheTolerances) {
@@ -369,12 +369,12 @@ TEST(Uah, WholeMethodOnSyntheticSignalsMeetsTheTolerances) {
   runs.push_back(straightRun(r, 3.0, 0.2, 50, &pulses));
 
   const UahResult u = computeUah(kNominal, right_left_stopped, left_right_stopped, runs, spin);
-  const double Ed_true = r.c_R / r.c_L;
+  const double Ed_true = r.right_m_per_pulse / r.left_m_per_pulse;
   const double ed_err = u.ed.Ed / Ed_true - 1;
-  const double cR_err = u.calibrated.right_m_per_pulse / r.c_R - 1;
-  const double cL_err = u.calibrated.left_m_per_pulse / r.c_L - 1;
+  const double cR_err = u.calibrated.right_m_per_pulse / r.right_m_per_pulse - 1;
+  const double cL_err = u.calibrated.left_m_per_pulse / r.left_m_per_pulse - 1;
   const double b_err = u.calibrated.wheelbase_m / r.b - 1;
-  std::printf("[ figures  ] UAH errors: Ed %+.4f %%, c_R %+.4f %%, c_L %+.4f %%, b %+.4f %%\n",
+  std::printf("[ figures  ] UAH errors: Ed %+.4f %%, right_m_per_pulse %+.4f %%, left_m_per_pulse %+.4f %%, b %+.4f %%\n",
               100 * ed_err, 100 * cR_err, 100 * cL_err, 100 * b_err);
   EXPECT_LT(std::abs(ed_err), 0.001);
   EXPECT_LT(std::abs(cR_err), 0.003);

@@ -11,35 +11,15 @@
 
 #include "autocal/errors.h"
 #include "autocal/odometry/umbmark.h"
+#include "support/umbmark_runs.h"
 
 using namespace autocal::odometry;
+using autocal::test::driveSquares;
+using Runs = autocal::test::UmbmarkRuns;
 
 namespace {
 
 DiffDriveParams nominal() { return DiffDriveParams::fromWheel(0.066, 135.0, 0.102); }
-
-struct Runs {
-  std::vector<ReturnError> cw, ccw;
-};
-
-// n runs each way; non-systematic error as Gaussian noise on the return point (seeded).
-Runs driveSquares(const DiffDriveParams& truth, const DiffDriveParams& odometry, double side_m,
-                  int n, double noise_m, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, noise_m);
-  Runs runs;
-  for (int i = 0; i < n; ++i) {
-    for (bool clockwise : {true, false}) {
-      ReturnError e = simulateUmbmarkSquare(truth, odometry, side_m, clockwise);
-      if (noise_m > 0) {
-        e.x_m += noise(rng);
-        e.y_m += noise(rng);
-      }
-      (clockwise ? runs.cw : runs.ccw).push_back(e);
-    }
-  }
-  return runs;
-}
 
 UmbmarkOptions options(double side_m, UmbmarkExpressions ex) {
   UmbmarkOptions o;
@@ -61,10 +41,10 @@ TEST(Umbmark, SignsFollowBorensteinsConventions) {
     EXPECT_GT(r.Ed, 1.0);
     EXPECT_GT(r.Eb, 1.0);
     EXPECT_GT(r.R_m, 0.0);
-    EXPECT_NEAR(r.c_R / r.c_L, r.Ed, 1e-12);
+    EXPECT_NEAR(r.right_pulse_factor / r.left_pulse_factor, r.Ed, 1e-12);
     EXPECT_NEAR(r.wheelbase_actual_m, r.Eb * 0.102, 1e-12);
     EXPECT_EQ(r.multipliers().wheel_separation_multiplier, r.Eb);
-    EXPECT_EQ(r.multipliers().left_wheel_radius_multiplier, r.c_L);
+    EXPECT_EQ(r.multipliers().left_wheel_radius_multiplier, r.left_pulse_factor);
   }
 }
 
@@ -214,7 +194,7 @@ TEST(Umbmark, LoadsTheExampleFileAndRejectsMalformedOnes) {
   };
   expectBad("cw: []\nccw: [[0.1, 0.2]]\n", "cw: the list is empty");
   expectBad("cw: [[0.1, 0.2]]\n", "ccw: missing");
-  expectBad("cw: [[0.1, abc]]\nccw: [[0.1, 0.2]]\n", "cw[0]: expected numbers, got 'abc'");
+  expectBad("cw: [[0.1, abc]]\nccw: [[0.1, 0.2]]\n", "cw[0][1]: expected a number, got 'abc'");
   expectBad("cw: [[0.1]]\nccw: [[0.1, 0.2]]\n", "expected a pair");
   expectBad("cw: [[0.1, 0.2]]\nccw: [[0.1, 0.2]]\nside: 1\n", "unknown key");
   expectBad("cw: [[0.1, 0.2]\n", "not valid YAML");

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <array>
 #include <cstdio>
@@ -10,7 +11,9 @@
 #include <fstream>
 #include <string>
 
+#include "autocal/exit_codes.h"
 #include "autocal/io/atomic_file.h"
+#include "autocal/odometry/umbmark.h"
 
 namespace fs = std::filesystem;
 
@@ -51,22 +54,52 @@ class UmbmarkCommand : public ::testing::Test {
       std::string(AUTOCAL_SOURCE_DIR) + "/config/umbmark_errors_example.yaml";
 };
 
-TEST_F(UmbmarkCommand, PrintsYamlAndWritesTheOdometryFile) {
+// What the command prints and writes are the core's numbers for the same input (each field by
+// name: swapped c_L and c_R would fail).
+TEST_F(UmbmarkCommand, PrintsAndWritesTheCoresNumbers) {
   const std::string out = (dir_ / "odometry" / "testbot.yaml").string();
   const Result r =
       run("--errors " + example_ + " --side 1.0 --wheelbase 0.102 --out " + out + " --veh testbot");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  for (const char* key :
-       {"expressions: corrected", "Ed: ", "Eb: ", "alpha_rad: ", "beta_rad: ", "R_m: ",
-        "E_max_syst_m: ", "c_L: ", "c_R: ", "wheel_separation_multiplier: ", "written: "}) {
-    EXPECT_NE(r.output.find(key), std::string::npos) << key << "\n" << r.output;
-  }
-  const std::string written = autocal::readFile(out);
-  for (const char* key :
-       {"method: umbmark", "vehicle: testbot", "Ed: ", "Eb: ", "b: ", "c_L: ", "c_R: ",
-        "left_wheel_radius_multiplier: ", "date: ", "inputs:", "side_m: 1"}) {
-    EXPECT_NE(written.find(key), std::string::npos) << key << "\n" << written;
-  }
+
+  using namespace autocal::odometry;
+  std::vector<ReturnError> cw, ccw;
+  loadUmbmarkErrors(example_, &cw, &ccw);
+  UmbmarkOptions options;
+  options.side_m = 1.0;
+  options.wheelbase_m = 0.102;
+  const UmbmarkResult expected = computeUmbmark(cw, ccw, options);
+  ASSERT_GT(std::abs(expected.left_pulse_factor - expected.right_pulse_factor), 1e-4)
+      << "the example must tell the wheels apart";
+
+  const YAML::Node printed = YAML::Load(r.output);
+  EXPECT_EQ(printed["expressions"].as<std::string>(), "corrected");
+  EXPECT_EQ(printed["runs_cw"].as<int>(), static_cast<int>(cw.size()));
+  const double tol = 1e-8;
+  EXPECT_NEAR(printed["Ed"].as<double>(), expected.Ed, tol);
+  EXPECT_NEAR(printed["Eb"].as<double>(), expected.Eb, tol);
+  EXPECT_NEAR(printed["alpha_rad"].as<double>(), expected.alpha_rad, tol);
+  EXPECT_NEAR(printed["beta_rad"].as<double>(), expected.beta_rad, tol);
+  EXPECT_NEAR(printed["E_max_syst_m"].as<double>(), expected.E_max_syst_m, tol);
+  EXPECT_NEAR(printed["c_L"].as<double>(), expected.left_pulse_factor, tol);
+  EXPECT_NEAR(printed["c_R"].as<double>(), expected.right_pulse_factor, tol);
+  EXPECT_NEAR(printed["left_wheel_radius_multiplier"].as<double>(), expected.left_pulse_factor,
+              tol);
+  EXPECT_NEAR(printed["right_wheel_radius_multiplier"].as<double>(), expected.right_pulse_factor,
+              tol);
+  EXPECT_NEAR(printed["wheel_separation_multiplier"].as<double>(), expected.Eb, tol);
+  EXPECT_EQ(printed["written"].as<std::string>(), out);
+
+  const YAML::Node written = YAML::LoadFile(out);
+  EXPECT_EQ(written["method"].as<std::string>(), "umbmark");
+  EXPECT_EQ(written["vehicle"].as<std::string>(), "testbot");
+  EXPECT_NEAR(written["Ed"].as<double>(), expected.Ed, tol);
+  EXPECT_NEAR(written["b"].as<double>(), expected.wheelbase_actual_m, tol);
+  EXPECT_NEAR(written["b_nominal"].as<double>(), 0.102, tol);
+  EXPECT_NEAR(written["c_L"].as<double>(), expected.left_pulse_factor, tol);
+  EXPECT_NEAR(written["c_R"].as<double>(), expected.right_pulse_factor, tol);
+  EXPECT_NEAR(written["inputs"]["side_m"].as<double>(), 1.0, tol);
+  EXPECT_FALSE(written["date"].as<std::string>().empty());
 }
 
 TEST_F(UmbmarkCommand, OriginalExpressionsAreSelectable) {
@@ -74,7 +107,7 @@ TEST_F(UmbmarkCommand, OriginalExpressionsAreSelectable) {
                        " --side 1.0 --wheelbase 0.102 --expressions "
                        "original");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("expressions: original"), std::string::npos) << r.output;
+  EXPECT_EQ(YAML::Load(r.output)["expressions"].as<std::string>(), "original") << r.output;
 }
 
 TEST_F(UmbmarkCommand, BadInputFailsClearlyAndKeepsTheGoodFile) {
@@ -84,28 +117,37 @@ TEST_F(UmbmarkCommand, BadInputFailsClearlyAndKeepsTheGoodFile) {
   const std::string tail = " --out " + out + " --veh testbot";
   struct Case {
     std::string args, needle;
+    autocal::ExitCode code;
   };
+  using autocal::ExitCode;
   const Case cases[] = {
       {"--errors " + file("empty.yaml", "cw: []\nccw: [[0.01, 0.02]]\n") +
            " --side 1 --wheelbase 0.1",
-       "cw: the list is empty"},
+       "cw: the list is empty", ExitCode::kBadInput},
       {"--errors " + file("onesided.yaml", "cw: [[0.01, 0.02]]\n") + " --side 1 --wheelbase 0.1",
-       "ccw: missing"},
+       "ccw: missing", ExitCode::kBadInput},
       {"--errors " + file("nonnum.yaml", "cw: [[0.01, x]]\nccw: [[0.01, 0.02]]\n") +
            " --side 1 --wheelbase 0.1",
-       "expected numbers, got 'x'"},
-      {"--errors " + example_ + " --side 0 --wheelbase 0.1", "side"},
-      {"--errors " + example_ + " --side 1 --wheelbase -0.1", "wheelbase"},
-      {"--errors " + example_ + " --side abc --wheelbase 0.1", "--side: expected a number"},
+       "cw[0][1]: expected a number, got 'x'", ExitCode::kBadInput},
+      {"--errors " + file("triple.yaml", "cw: [[0.01, 0.02, 0.03]]\nccw: [[0.01, 0.02]]\n") +
+           " --side 1 --wheelbase 0.1",
+       "expected a pair", ExitCode::kBadInput},
+      {"--errors " + example_ + " --side 0 --wheelbase 0.1", "side_m", ExitCode::kBadConfig},
+      {"--errors " + example_ + " --side 1 --wheelbase -0.1", "wheelbase_m", ExitCode::kBadConfig},
+      {"--errors " + example_ + " --side abc --wheelbase 0.1", "--side: expected a number",
+       ExitCode::kUsage},
+      {"--errors " + example_ + " --side 1", "--wheelbase", ExitCode::kUsage},
       {"--errors " + file("beta0.yaml", "cw: [[-0.05, -0.05]]\nccw: [[-0.05, 0.05]]\n") +
            " --side 1 --wheelbase 0.1",
-       "unbounded"},
-      {"--errors " + (dir_ / "missing.yaml").string() + " --side 1 --wheelbase 0.1", "cannot open"},
-      {"--errors " + example_ + " --side 1 --wheelbase 0.1 --expressions new", "expressions"},
+       "unbounded", ExitCode::kCalibrationFailed},
+      {"--errors " + (dir_ / "missing.yaml").string() + " --side 1 --wheelbase 0.1", "cannot open",
+       ExitCode::kBadInput},
+      {"--errors " + example_ + " --side 1 --wheelbase 0.1 --expressions new", "expressions",
+       ExitCode::kBadConfig},
   };
   for (const Case& c : cases) {
     const Result r = run(c.args + tail);
-    EXPECT_NE(r.exit_code, 0) << c.args << "\n" << r.output;
+    EXPECT_EQ(r.exit_code, autocal::toInt(c.code)) << c.args << "\n" << r.output;
     EXPECT_NE(r.output.find(c.needle), std::string::npos) << c.args << "\n" << r.output;
     EXPECT_EQ(autocal::readFile(out), "good: file\n") << c.args;
   }

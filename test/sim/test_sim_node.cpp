@@ -22,7 +22,8 @@
 #include <vector>
 
 #include "autocal/sim/config.h"
-#include "msgs.h"
+#include "autocal/exit_codes.h"
+#include "autocal_ros/msgs.h"
 
 namespace {
 
@@ -276,12 +277,32 @@ std::string readAll(const std::string& path) {
 TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
   const std::string good_robot = readAll(robotConfigPath());
   ASSERT_FALSE(good_robot.empty());
-  const std::string common = "__ns:=/badcfg _real_time_factor:=0 _camera_enabled:=false _duration_s:=0.2";
+  const std::string world = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world.yaml";
+  const std::string required = " _robot_config:=" + robotConfigPath() + " _world_config:=" + world;
+  const std::string common =
+      "__ns:=/badcfg _real_time_factor:=0 _camera_enabled:=false _duration_s:=0.2";
+  const int bad_config = autocal::toInt(autocal::ExitCode::kBadConfig);
 
   // Control: the shipped config runs and ends cleanly, so a failure below is the config's doing.
   {
     std::string out;
-    EXPECT_EQ(runNode(common, &out), 0) << out;
+    EXPECT_EQ(runNode(common + required, &out), 0) << out;
+  }
+  // Each required parameter, missing, stops the node with the bad-configuration code, naming it.
+  for (const std::string& missing : {"robot_config", "world_config"}) {
+    const std::string other = missing == "robot_config" ? " _world_config:=" + world
+                                                        : " _robot_config:=" + robotConfigPath();
+    std::string out;
+    EXPECT_EQ(runNode(common + other, &out), bad_config) << missing << ": " << out;
+    EXPECT_NE(out.find("~" + missing + ": required parameter is missing"), std::string::npos)
+        << out;
+  }
+  // A parameter of the wrong type or out of range names the key.
+  for (const std::string& bad : {std::string(" _seed:=-1"), std::string(" _physics_rate_hz:=abc")}) {
+    std::string out;
+    EXPECT_EQ(runNode(common + required + bad, &out), bad_config) << bad << ": " << out;
+    const std::string key = bad.substr(2, bad.find(":=") - 2);
+    EXPECT_NE(out.find("~" + key), std::string::npos) << bad << ": " << out;
   }
   struct Case {
     std::string name, contents, must_mention;
@@ -298,15 +319,19 @@ TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
   for (const Case& c : cases) {
     const std::string path = writeTemp(c.name, c.contents);
     std::string out;
-    const int status = runNode(common + " _robot_config:=" + path, &out);
-    EXPECT_NE(status, 0) << c.name << ": " << out;
+    const int status = runNode(common + " _world_config:=" + world + " _robot_config:=" + path, &out);
+    EXPECT_EQ(status, bad_config) << c.name << ": " << out;
     EXPECT_NE(out.find(path), std::string::npos) << c.name << ": the error does not name the file: " << out;
     EXPECT_NE(out.find(c.must_mention), std::string::npos) << c.name << ": " << out;
     std::remove(path.c_str());
   }
   {
     std::string out;
-    EXPECT_NE(runNode(common + " _world_config:=/nonexistent/world.yaml", &out), 0) << out;
+    EXPECT_EQ(runNode(common + " _robot_config:=" + robotConfigPath() +
+                          " _world_config:=/nonexistent/world.yaml",
+                      &out),
+              bad_config)
+        << out;
     EXPECT_NE(out.find("/nonexistent/world.yaml"), std::string::npos) << out;
   }
 }

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "autocal/camera/chessboard.h"
+#include "autocal/camera_intrinsics.h"
 #include "autocal/distortion_model.h"
 
 namespace autocal {
@@ -20,8 +22,6 @@ using autocal::parseDistortionModel;
 
 struct CalibrationOptions {
   DistortionModel model = DistortionModel::kPlumbBob;
-  cv::Size pattern_size{9, 6};
-  double square_size_m = 0.025;
   /// Fewer views than this are refused.
   int min_views = 6;
   /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.
@@ -56,17 +56,7 @@ struct CalibrationOptions {
   double min_kept_fraction = 0.5;
 };
 
-struct Intrinsics {
-  DistortionModel model = DistortionModel::kPlumbBob;
-  cv::Size image_size;
-  cv::Matx33d camera_matrix = cv::Matx33d::eye();
-  /// plumb_bob: k1 k2 p1 p2 k3; rational_polynomial: k1 k2 p1 p2 k3 k4 k5 k6; equidistant: k1..k4.
-  std::vector<double> distortion;
-  double fx() const { return camera_matrix(0, 0); }
-  double fy() const { return camera_matrix(1, 1); }
-  double cx() const { return camera_matrix(0, 2); }
-  double cy() const { return camera_matrix(1, 2); }
-};
+using autocal::CameraIntrinsics;
 
 struct DroppedView {
   int index = -1;  ///< index into the input views
@@ -74,7 +64,7 @@ struct DroppedView {
 };
 
 struct CalibrationResult {
-  Intrinsics intrinsics;
+  CameraIntrinsics intrinsics;
   double rms_px = 0;                       ///< over all used corners
   std::vector<int> used_views;             ///< indices into the input views
   std::vector<double> per_view_rms_px;     ///< parallel to used_views
@@ -95,14 +85,8 @@ struct CalibrationResult {
 /// wrong count) and CalibrationError when the views cannot determine the model (too few, all
 /// alike, too many outliers), each with a message naming the reason.
 CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
-                            const cv::Size& image_size, const CalibrationOptions& options);
-
-/// Fits the pose of one view with given intrinsics and returns its reprojection RMS [px].
-double heldOutRmsPx(const std::vector<cv::Point2f>& corners, const Intrinsics& intrinsics,
-                    const cv::Size& pattern_size, double square_size_m);
-
-/// The board's corners in its own frame [m], in pattern order.
-std::vector<cv::Point3f> boardPoints(const cv::Size& pattern_size, double square_size_m);
+                            const cv::Size& image_size, const BoardSpec& board,
+                            const CalibrationOptions& options);
 
 struct HoldoutEvaluation {
   double mean_rms_px = 0;           ///< mean over folds of the held-out view's RMS
@@ -118,8 +102,8 @@ enum class HoldoutMethod { kAutocal, kPlainOpenCv };
 /// Leave-one-out: for each view, fit on all the others, fit the held-out view's pose with those
 /// intrinsics and measure its reprojection RMS.
 HoldoutEvaluation leaveOneOut(const std::vector<std::vector<cv::Point2f>>& views,
-                              const cv::Size& image_size, const CalibrationOptions& options,
-                              HoldoutMethod method);
+                              const cv::Size& image_size, const BoardSpec& board,
+                              const CalibrationOptions& options, HoldoutMethod method);
 
 struct QualityGateOptions {
   double max_rms_px = 1.0;

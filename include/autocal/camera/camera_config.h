@@ -12,13 +12,12 @@ namespace autocal {
 namespace camera {
 
 struct CameraCalibrationConfig {
+  BoardSpec board;  ///< the one board every part uses
   ChessboardDetectorOptions detector;
   ViewSelectionOptions selection;
   CalibrationOptions calibration;
   QualityGateOptions quality_gate;
 
-  /// Sets the board on every part (pattern size and square size must agree everywhere).
-  void setBoard(const cv::Size& pattern_size, double square_size_m);
   /// Throws ConfigError naming the first bad value.
   void validate() const;
 };

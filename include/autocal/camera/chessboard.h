@@ -10,9 +10,22 @@
 namespace autocal {
 namespace camera {
 
+/// The calibration board, given once and passed to detection, view selection and calibration.
+struct BoardSpec {
+  /// Inner corners per row (cols) and per column (rows), e.g. 9x6 (not squares).
+  cv::Size inner_corners{9, 6};
+  double square_size_m = 0.025;  ///< side of one square [m]
+
+  /// The board's corners in its own frame [m], in OpenCV's row-major pattern order.
+  std::vector<cv::Point3f> points() const;
+  int cornerCount() const { return inner_corners.area(); }
+  /// "9x6, 0.025 m squares".
+  std::string describe() const;
+  /// Throws ConfigError naming board.inner_corners or board.square_size_m.
+  void validate() const;
+};
+
 struct ChessboardDetectorOptions {
-  /// Inner corners per row (cols) and per column (rows), e.g. 9x6.
-  cv::Size pattern_size{9, 6};
   /// At most this many boards are searched for in one frame.
   int max_boards = 4;
   /// Use OpenCV's fast check (rejects frames without a board in a few ms) when the
@@ -43,20 +56,19 @@ struct ChessboardDetectorOptions {
 /// One board found in a frame: corners in OpenCV's row-major order of the pattern.
 struct BoardDetection {
   std::vector<cv::Point2f> corners;
-  bool refined = false;
 };
 
 /// Finds up to options.max_boards boards of the given size in a grey image. After each board is
 /// found, its hull (grown by one square) is painted over and the search is repeated, so every
 /// returned board has corners from one physical board only. Corners are not yet refined.
-std::vector<BoardDetection> detectChessboards(const cv::Mat& gray,
+std::vector<BoardDetection> detectChessboards(const cv::Mat& gray, const BoardSpec& board,
                                               const ChessboardDetectorOptions& options);
 
 /// Smallest distance between neighbouring corners of a board [px].
-double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const cv::Size& pattern_size);
+double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const BoardSpec& board);
 
 /// Sub-pixel refinement with a window scaled to the board's own corner spacing.
-void refineCorners(const cv::Mat& gray, BoardDetection& board,
+void refineCorners(const cv::Mat& gray, const BoardSpec& spec, BoardDetection& board,
                    const ChessboardDetectorOptions& options);
 
 /// Blur of the board region, as the width of its edges [px]: contrast (95th − 5th percentile of

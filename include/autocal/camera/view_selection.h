@@ -28,8 +28,6 @@ struct ViewParams {
 };
 
 struct ViewSelectionOptions {
-  cv::Size pattern_size{9, 6};
-  double square_size_m = 0.025;
   /// A view is kept when the L1 distance of its parameters to every kept view is at least this
   /// (ROS camera_calibration: 0.2 over X, Y, size and skew).
   double min_novelty = 0.2;
@@ -52,7 +50,7 @@ struct ViewSelectionOptions {
 
 /// The parameters of a board view in an image of the given size.
 ViewParams computeViewParams(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
-                             const ViewSelectionOptions& options);
+                             const BoardSpec& board, const ViewSelectionOptions& options);
 
 struct Coverage {
   std::array<double, 6> spread{};    ///< max − min of each parameter over the kept views
@@ -91,7 +89,8 @@ struct FrameResult {
 /// views worth calibrating on. Detection is the fast one; only kept views are refined.
 class ViewCollector {
  public:
-  ViewCollector(const ChessboardDetectorOptions& detector, const ViewSelectionOptions& selection);
+  ViewCollector(const BoardSpec& board, const ChessboardDetectorOptions& detector,
+                const ViewSelectionOptions& selection);
 
   /// Detects boards in `image` (8-bit, grey or colour) and keeps the views that are sharp and
   /// new. Throws InputError when the image is empty or of another size than the first one.
@@ -103,11 +102,13 @@ class ViewCollector {
   const std::vector<CalibrationView>& views() const { return views_; }
   Coverage coverage() const;
   const cv::Size& imageSize() const { return image_size_; }
+  const BoardSpec& board() const { return board_; }
   int frames() const { return frames_; }
 
  private:
   ViewDecision judge(const std::vector<cv::Point2f>& corners, double edge_width_px);
 
+  BoardSpec board_;
   ChessboardDetectorOptions detector_;
   ViewSelectionOptions selection_;
   cv::Size image_size_;

@@ -23,9 +23,9 @@ struct OdometryCalibration {
   double Ed = 1.0;          ///< D_R/D_L
   double Eb = 1.0;          ///< b_actual/b_nominal
   double wheelbase_nominal_m = 0.0;
-  double wheelbase_m = 0.0;  ///< calibrated effective wheelbase b
-  double c_L = 1.0;          ///< left distance per pulse, as a factor of the nominal one
-  double c_R = 1.0;          ///< right distance per pulse, as a factor of the nominal one
+  double wheelbase_m = 0.0;         ///< calibrated effective wheelbase b
+  double left_pulse_factor = 1.0;   ///< left distance per pulse, as a factor of the nominal one
+  double right_pulse_factor = 1.0;  ///< right distance per pulse, as a factor of the nominal one
   /// Absolute distances per pulse [m] when the method measures them (UAH); 0 when unknown.
   double left_m_per_pulse = 0.0;
   double right_m_per_pulse = 0.0;

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <string>
 
+#include "autocal/pose2d.h"
+
 namespace autocal {
 namespace odometry {
 
@@ -27,11 +29,7 @@ struct DiffDriveParams {
 /// c_L = 2/(Ed + 1), c_R = 2/(1/Ed + 1), and the wheelbase becomes Eb·b.
 DiffDriveParams applyUmbmarkCorrection(const DiffDriveParams& nominal, double Ed, double Eb);
 
-struct Pose2D {
-  double x_m = 0.0;
-  double y_m = 0.0;
-  double theta_rad = 0.0;
-};
+using autocal::Pose2D;
 
 /// How one step of wheel travel becomes a pose change.
 enum class Integrator {

@@ -54,11 +54,11 @@ struct UmbmarkResult {
   double Ed = 1.0;            ///< D_R/D_L
   double Eb = 1.0;            ///< b_actual/b_nominal
   double wheelbase_actual_m = 0.0;
-  double c_L = 1.0;  ///< correction factor of the left wheel's distance per pulse
-  double c_R = 1.0;  ///< correction factor of the right wheel's distance per pulse
+  double left_pulse_factor = 1.0;   ///< correction factor of the left wheel's distance per pulse
+  double right_pulse_factor = 1.0;  ///< correction factor of the right wheel's distance per pulse
 
   /// diff_drive_controller's multipliers: c_L, c_R and Eb.
-  DiffDriveMultipliers multipliers() const { return {c_L, c_R, Eb}; }
+  DiffDriveMultipliers multipliers() const { return {left_pulse_factor, right_pulse_factor, Eb}; }
 };
 
 /// Computes UMBmark from the return errors. Throws InputError for an empty or one-sided list or
@@ -69,12 +69,6 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
 
 /// E_max,syst alone (centres of gravity of both directions), for comparing before and after.
 double umbmarkEmaxSyst(const std::vector<ReturnError>& cw, const std::vector<ReturnError>& ccw);
-
-/// Drives one L×L square in the dead-reckoning model: the controller commands wheel pulses so
-/// that its own odometry (`odometry`) completes an exact square, turning on the spot at the
-/// corners, while the robot moves with the `truth` parameters. Returns actual − computed end.
-ReturnError simulateUmbmarkSquare(const DiffDriveParams& truth, const DiffDriveParams& odometry,
-                                  double side_m, bool clockwise);
 
 /// The result as the odometry file's record (method "umbmark"), with its inputs.
 OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,

@@ -2,7 +2,6 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
-#include <ros/package.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -16,67 +15,54 @@
 
 #include "autocal/errors.h"
 #include "autocal/sim/scene.h"
+#include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/params.h"
 
 namespace autocal {
 namespace sim {
 
-namespace {
-
-template <typename T>
-T param(const ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
-  T value;
-  pnh.param<T>(name, value, fallback);
-  return value;
+void SimNodeOptions::validate() const {
+  auto check = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) throw ConfigError("~" + key + ": " + what);
+  };
+  check(real_time_factor >= 0, "real_time_factor", "must be >= 0 (0: as fast as possible)");
+  check(physics_rate_hz > 0, "physics_rate_hz", "must be > 0");
+  check(clock_rate_hz > 0, "clock_rate_hz", "must be > 0");
+  check(wheels_cmd_timeout_s > 0, "wheels_cmd_timeout_s", "must be > 0");
+  check(ground_truth_rate_hz > 0, "ground_truth_rate_hz", "must be > 0");
+  check(status_rate_hz > 0, "status_rate_hz", "must be > 0");
+  check(max_blur_samples >= 1 && max_blur_samples <= 64, "max_blur_samples", "must be 1..64");
+  check(seed >= 0, "seed", "must be >= 0");
+  check(duration_s >= 0, "duration_s", "must be >= 0 (0: run until shutdown)");
 }
 
-sensor_msgs::CameraInfo cameraInfo(const Intrinsics& in) {
-  sensor_msgs::CameraInfo info;
-  info.width = static_cast<uint32_t>(in.width);
-  info.height = static_cast<uint32_t>(in.height);
-  info.distortion_model = distortionModelName(in.distortion_model);
-  info.D = in.distortion_coefficients;
-  info.K = {in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1};
-  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {in.fx, 0, in.cx, 0, 0, in.fy, in.cy, 0, 0, 0, 1, 0};
-  return info;
+SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
+  SimNodeOptions o;
+  const ros_layer::ParamReader p(pnh, "sim_node");
+  p.require("robot_config", o.robot_config);
+  p.require("world_config", o.world_config);
+  p.get("real_time_factor", o.real_time_factor);
+  p.get("seed", o.seed);
+  p.get("physics_rate_hz", o.physics_rate_hz);
+  p.get("clock_rate_hz", o.clock_rate_hz);
+  p.get("wheels_cmd_timeout_s", o.wheels_cmd_timeout_s);
+  p.get("ground_truth_rate_hz", o.ground_truth_rate_hz);
+  p.get("status_rate_hz", o.status_rate_hz);
+  p.get("camera_enabled", o.camera_enabled);
+  p.get("max_blur_samples", o.max_blur_samples);
+  p.get("world_frame", o.world_frame);
+  p.get("duration_s", o.duration_s);
+  std::string ns = nh.getNamespace();
+  ns.erase(0, ns.find_first_not_of('/'));
+  o.vehicle = ns.empty() ? "robot" : ns;
+  p.get("vehicle", o.vehicle);
+  o.validate();
+  return o;
 }
-
-geometry_msgs::Quaternion yawQuaternion(double yaw) {
-  geometry_msgs::Quaternion q;
-  q.z = std::sin(0.5 * yaw);
-  q.w = std::cos(0.5 * yaw);
-  return q;
-}
-
-}  // namespace
 
 SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), camera_rng_(0), range_rng_(0) {
-  const std::string package = ros::package::getPath("autocal");
-  options_.robot_config = param<std::string>(pnh_, "robot_config", package + "/sim/config/robot.yaml");
-  options_.world_config = param<std::string>(pnh_, "world_config", package + "/sim/config/world.yaml");
-  options_.real_time_factor = param(pnh_, "real_time_factor", options_.real_time_factor);
-  options_.seed = param(pnh_, "seed", options_.seed);
-  options_.physics_rate_hz = param(pnh_, "physics_rate_hz", options_.physics_rate_hz);
-  options_.clock_rate_hz = param(pnh_, "clock_rate_hz", options_.clock_rate_hz);
-  options_.wheels_cmd_timeout_s = param(pnh_, "wheels_cmd_timeout_s", options_.wheels_cmd_timeout_s);
-  options_.ground_truth_rate_hz = param(pnh_, "ground_truth_rate_hz", options_.ground_truth_rate_hz);
-  options_.status_rate_hz = param(pnh_, "status_rate_hz", options_.status_rate_hz);
-  options_.camera_enabled = param(pnh_, "camera_enabled", options_.camera_enabled);
-  options_.max_blur_samples = param(pnh_, "max_blur_samples", options_.max_blur_samples);
-  options_.world_frame = param<std::string>(pnh_, "world_frame", options_.world_frame);
-  options_.duration_s = param(pnh_, "duration_s", options_.duration_s);
-  std::string ns = nh_.getNamespace();
-  ns.erase(0, ns.find_first_not_of('/'));
-  options_.vehicle = param<std::string>(pnh_, "vehicle", ns.empty() ? "robot" : ns);
-
-  if (!(options_.real_time_factor >= 0)) throw ConfigError("~real_time_factor must be >= 0 (0: as fast as possible)");
-  if (!(options_.clock_rate_hz > 0)) throw ConfigError("~clock_rate_hz must be > 0");
-  if (!(options_.wheels_cmd_timeout_s > 0)) throw ConfigError("~wheels_cmd_timeout_s must be > 0");
-  if (!(options_.ground_truth_rate_hz > 0)) throw ConfigError("~ground_truth_rate_hz must be > 0");
-  if (!(options_.status_rate_hz > 0)) throw ConfigError("~status_rate_hz must be > 0");
-  if (options_.max_blur_samples < 1 || options_.max_blur_samples > 64) throw ConfigError("~max_blur_samples must be 1..64");
-  if (options_.seed < 0) throw ConfigError("~seed must be >= 0");
+  options_ = readSimNodeOptions(nh_, pnh_);
 
   robot_ = loadRobotConfig(options_.robot_config);
   world_ = loadWorldConfig(options_.world_config);
@@ -97,7 +83,6 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   const std::string& v = options_.vehicle;
   camera_frame_ = v + "/camera_optical_frame";
   range_frame_ = v + "/front_center_tof_link";
-  base_frame_ = v + "/base_link";
   ground_truth_frame_ = v + "/ground_truth/base_link";
 
   clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
@@ -108,7 +93,7 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 5);
   camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", 5);
   ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", 10);
-  status_pub_ = nh_.advertise<CalibrationStatus>("sim/status", 1, true);
+  status_ = ros_layer::StatusPublisher(nh_, "sim/status");
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   wheels_cmd_sub_ = nh_.subscribe("wheels_driver_node/wheels_cmd", 10, &SimNode::onWheelsCmd, this);
 
@@ -121,7 +106,8 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 SimNode::~SimNode() = default;
 
 void SimNode::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
-  double left = msg->vel_left, right = msg->vel_right;
+  const WheelDuties duties = ros_layer::fromWheelsCmd(*msg);
+  double left = duties.left, right = duties.right;
   if (!std::isfinite(left) || !std::isfinite(right)) {
     ROS_WARN_THROTTLE(1.0, "sim: dropped a wheels_cmd with a non-finite duty (%f, %f)", left, right);
     return;
@@ -138,27 +124,23 @@ void SimNode::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
 
 void SimNode::publishClock() {
   rosgraph_msgs::Clock clock;
-  clock.clock = stamp(sim_->time_s());
+  clock.clock = ros_layer::toRosTime(sim_->time_s());
   clock_pub_.publish(clock);
 }
 
 void SimNode::publishEncoders() {
-  const ros::Time t = stamp(sim_->time_s());
   for (Side side : {Side::kLeft, Side::kRight}) {
-    dtmsg::WheelEncoderStamped msg;
-    msg.header.stamp = t;
-    msg.header.frame_id = options_.vehicle + (side == Side::kLeft ? "/left_wheel_axis" : "/right_wheel_axis");
-    msg.data = sim_->encoderTicks(side);
-    msg.resolution = static_cast<uint16_t>(robot_.encoder_resolution);
-    msg.type = dtmsg::WheelEncoderStamped::ENCODER_TYPE_INCREMENTAL;
-    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_).publish(msg);
+    const EncoderReading reading{sim_->time_s(), sim_->encoderTicks(side), robot_.encoder_resolution};
+    const std::string frame =
+        options_.vehicle + (side == Side::kLeft ? "/left_wheel_axis" : "/right_wheel_axis");
+    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_).publish(ros_layer::toEncoderMsg(reading, frame));
   }
 }
 
 void SimNode::publishRange() {
   const RangeSensorConfig& s = robot_.range_sensor;
   sensor_msgs::Range msg;
-  msg.header.stamp = stamp(sim_->time_s());
+  msg.header.stamp = ros_layer::toRosTime(sim_->time_s());
   msg.header.frame_id = range_frame_;
   msg.radiation_type = sensor_msgs::Range::INFRARED;
   msg.field_of_view = static_cast<float>(s.field_of_view_rad);
@@ -172,8 +154,8 @@ void SimNode::publishCamera(double capture_s) {
   const bool want_compressed = compressed_pub_.getNumSubscribers() > 0;
   const bool want_raw = image_pub_.getNumSubscribers() > 0;
   const double exposure = robot_.camera.exposure_s;
-  const ros::Time t = stamp(std::max(0.0, capture_s - 0.5 * exposure));  // mid-exposure
-  sensor_msgs::CameraInfo info = cameraInfo(robot_.camera.nominal);
+  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * exposure);  // mid-exposure
+  sensor_msgs::CameraInfo info = ros_layer::toCameraInfo(robot_.camera.nominal);
   info.header.stamp = t;
   info.header.frame_id = camera_frame_;
   camera_info_pub_.publish(info);
@@ -205,38 +187,29 @@ void SimNode::publishCamera(double capture_s) {
 void SimNode::publishGroundTruth() {
   const Pose2 p = sim_->pose();
   nav_msgs::Odometry odom;
-  odom.header.stamp = stamp(sim_->time_s());
+  odom.header.stamp = ros_layer::toRosTime(sim_->time_s());
   odom.header.frame_id = options_.world_frame;
   odom.child_frame_id = ground_truth_frame_;
-  odom.pose.pose.position.x = p.x_m;
-  odom.pose.pose.position.y = p.y_m;
-  odom.pose.pose.orientation = yawQuaternion(p.yaw_rad);
+  odom.pose.pose = ros_layer::toPoseMsg(p);
   odom.twist.twist.linear.x = sim_->forwardSpeed();
   odom.twist.twist.angular.z = sim_->yawRate();
   ground_truth_pub_.publish(odom);
   geometry_msgs::TransformStamped tf;
   tf.header = odom.header;
   tf.child_frame_id = ground_truth_frame_;
-  tf.transform.translation.x = p.x_m;
-  tf.transform.translation.y = p.y_m;
-  tf.transform.rotation = odom.pose.pose.orientation;
+  tf.transform = ros_layer::toTransformMsg(p);
   tf_->sendTransform(tf);
 }
 
 void SimNode::publishStatus(double achieved_rtf) {
-  CalibrationStatus status;
-  status.header.stamp = stamp(sim_->time_s());
-  status.phase = "sim";
-  status.state = CalibrationStatus::STATE_RUNNING;
-  status.progress = options_.duration_s > 0 ? static_cast<float>(sim_->time_s() / options_.duration_s) : -1.0f;
+  const double progress = options_.duration_s > 0 ? sim_->time_s() / options_.duration_s : -1.0;
   char text[160];
   std::snprintf(text, sizeof(text), "simulating: %.1f s, real-time factor %.2f%s", sim_->time_s(), achieved_rtf,
                 watchdog_stopped_ ? ", wheels stopped (no wheels_cmd)" : "");
-  status.text = text;
-  status.figure_names = {"sim_time_s", "real_time_factor", "x_m", "y_m", "yaw_rad"};
   const Pose2 p = sim_->pose();
-  status.figure_values = {sim_->time_s(), achieved_rtf, p.x_m, p.y_m, p.yaw_rad};
-  status_pub_.publish(status);
+  status_.running("sim", progress, text,
+                  {{"sim_time_s", sim_->time_s()}, {"real_time_factor", achieved_rtf}, {"x_m", p.x_m},
+                   {"y_m", p.y_m}, {"yaw_rad", p.yaw_rad}});
 }
 
 void SimNode::run() {
@@ -260,7 +233,7 @@ void SimNode::run() {
   ros::WallTime rtf_mark = wall_start;
   publishClock();
   publishStatus(0.0);
-  while (ros::ok()) {
+  while (ros_layer::ok()) {
     sim_->step();
     const double t = sim_->time_s();
     if (due(clock, t)) publishClock();

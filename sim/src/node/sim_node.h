@@ -13,7 +13,8 @@
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
-#include "msgs.h"
+#include "autocal_ros/msgs.h"
+#include "autocal_ros/node_runtime.h"
 
 namespace tf2_ros {
 class TransformBroadcaster;
@@ -37,7 +38,13 @@ struct SimNodeOptions {
   std::string vehicle;  ///< frame prefix, from the namespace
   std::string world_frame = "world";
   double duration_s = 0.0;  ///< stop after this much simulated time (0: run until shutdown)
+  /// Throws ConfigError naming the bad "~key".
+  void validate() const;
 };
+
+/// The node's private parameters (README "Simulator"); ~robot_config and ~world_config are
+/// required. Throws ConfigError.
+SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh);
 
 class SimNode {
  public:
@@ -55,7 +62,6 @@ class SimNode {
   void publishCamera(double capture_s);
   void publishGroundTruth();
   void publishStatus(double achieved_rtf);
-  ros::Time stamp(double t_s) const { return ros::Time(t_s); }
 
   ros::NodeHandle nh_, pnh_;
   SimNodeOptions options_;
@@ -67,12 +73,13 @@ class SimNode {
 
   ros::Subscriber wheels_cmd_sub_;
   ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_, compressed_pub_,
-      camera_info_pub_, ground_truth_pub_, status_pub_;
+      camera_info_pub_, ground_truth_pub_;
+  ros_layer::StatusPublisher status_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
 
   double last_cmd_s_ = -1e9;
   bool watchdog_stopped_ = true;
-  std::string camera_frame_, range_frame_, base_frame_, ground_truth_frame_;
+  std::string camera_frame_, range_frame_, ground_truth_frame_;
 };
 
 }  // namespace sim

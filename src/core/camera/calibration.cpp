@@ -14,17 +14,6 @@
 namespace autocal {
 namespace camera {
 
-std::vector<cv::Point3f> boardPoints(const cv::Size& pattern_size, double square_size_m) {
-  std::vector<cv::Point3f> points;
-  for (int r = 0; r < pattern_size.height; ++r) {
-    for (int c = 0; c < pattern_size.width; ++c) {
-      points.emplace_back(static_cast<float>(c * square_size_m),
-                          static_cast<float>(r * square_size_m), 0.0f);
-    }
-  }
-  return points;
-}
-
 namespace {
 
 using Points2 = std::vector<cv::Point2f>;
@@ -69,7 +58,7 @@ std::vector<TermSet> termSets(DistortionModel model) {
 }
 
 struct Fit {
-  Intrinsics intrinsics;
+  CameraIntrinsics intrinsics;
   double rms_px = 0;
   std::vector<double> std_devs;
   std::vector<cv::Mat> rvecs, tvecs;
@@ -80,17 +69,17 @@ size_t distortionCount(DistortionModel m) {
 }
 
 Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const cv::Size& size,
-        DistortionModel model, int flags, const Intrinsics* guess = nullptr,
+        DistortionModel model, int flags, const CameraIntrinsics* guess = nullptr,
         bool opencv_default_criteria = false) {
   Fit f;
-  f.intrinsics.model = model;
-  f.intrinsics.image_size = size;
+  f.intrinsics.distortion_model = model;
+  f.intrinsics.setImageSize(size);
   cv::Mat k, d;
   if (guess) {
     // Warm start (folds of a cross-validation start from the fit on all views): same optimum,
     // far fewer iterations.
-    k = cv::Mat(guess->camera_matrix).clone();
-    d = cv::Mat(guess->distortion, true).reshape(1, 1);
+    k = cv::Mat(guess->cameraMatrix()).clone();
+    d = cv::Mat(guess->distortion_coefficients, true).reshape(1, 1);
     flags |= isFisheye(model) ? static_cast<int>(cv::fisheye::CALIB_USE_INTRINSIC_GUESS)
                               : static_cast<int>(cv::CALIB_USE_INTRINSIC_GUESS);
   }
@@ -122,28 +111,29 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
   } catch (const cv::Exception& e) {
     throw CalibrationError(std::string("OpenCV could not fit the model: ") + e.what());
   }
-  f.intrinsics.camera_matrix = cv::Matx33d(k);
+  f.intrinsics.setCameraMatrix(cv::Matx33d(k));
   d = d.reshape(1, 1);
-  f.intrinsics.distortion.assign(distortionCount(model), 0.0);
+  f.intrinsics.distortion_coefficients.assign(distortionCount(model), 0.0);
   for (int i = 0; i < std::min<int>(d.cols, static_cast<int>(distortionCount(model))); ++i) {
-    f.intrinsics.distortion[static_cast<size_t>(i)] = d.at<double>(i);
+    f.intrinsics.distortion_coefficients[static_cast<size_t>(i)] = d.at<double>(i);
   }
-  for (int i = 0; i < 9; ++i) {
-    if (!std::isfinite(f.intrinsics.camera_matrix.val[i])) {
-      throw CalibrationError("the fit diverged (non-finite camera matrix)");
-    }
+  const CameraIntrinsics& in = f.intrinsics;
+  if (!std::isfinite(in.fx) || !std::isfinite(in.fy) || !std::isfinite(in.cx) ||
+      !std::isfinite(in.cy)) {
+    throw CalibrationError("the fit diverged (non-finite camera matrix)");
   }
   return f;
 }
 
 Points2 project(const Points3& obj, const cv::Mat& rvec, const cv::Mat& tvec,
-                const Intrinsics& in) {
+                const CameraIntrinsics& in) {
   Points2 out;
-  if (isFisheye(in.model)) {
-    cv::fisheye::projectPoints(obj, out, rvec, tvec, cv::Mat(in.camera_matrix),
-                               cv::Mat(in.distortion));
+  if (isFisheye(in.distortion_model)) {
+    cv::fisheye::projectPoints(obj, out, rvec, tvec, cv::Mat(in.cameraMatrix()),
+                               cv::Mat(in.distortion_coefficients));
   } else {
-    cv::projectPoints(obj, rvec, tvec, cv::Mat(in.camera_matrix), cv::Mat(in.distortion), out);
+    cv::projectPoints(obj, rvec, tvec, cv::Mat(in.cameraMatrix()),
+                      cv::Mat(in.distortion_coefficients), out);
   }
   return out;
 }
@@ -157,17 +147,22 @@ double rms(const Points2& a, const Points2& b) {
   return a.empty() ? 0 : std::sqrt(s / static_cast<double>(a.size()));
 }
 
-double heldOut(const Points3& obj, const Points2& img, const Intrinsics& in) {
+double heldOut(const Points3& obj, const Points2& img, const CameraIntrinsics& in) {
   cv::Mat rvec, tvec;
-  if (isFisheye(in.model)) {
-    Points2 normalised;
-    cv::fisheye::undistortPoints(img, normalised, cv::Mat(in.camera_matrix),
-                                 cv::Mat(in.distortion));
-    cv::solvePnP(obj, normalised, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec);
-  } else {
-    cv::solvePnP(obj, img, cv::Mat(in.camera_matrix), cv::Mat(in.distortion), rvec, tvec);
+  try {
+    if (isFisheye(in.distortion_model)) {
+      Points2 normalised;
+      cv::fisheye::undistortPoints(img, normalised, cv::Mat(in.cameraMatrix()),
+                                   cv::Mat(in.distortion_coefficients));
+      cv::solvePnP(obj, normalised, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec);
+    } else {
+      cv::solvePnP(obj, img, cv::Mat(in.cameraMatrix()), cv::Mat(in.distortion_coefficients), rvec,
+                   tvec);
+    }
+    return rms(project(obj, rvec, tvec, in), img);
+  } catch (const cv::Exception& e) {
+    throw CalibrationError(std::string("OpenCV could not fit a held-out view's pose: ") + e.what());
   }
-  return rms(project(obj, rvec, tvec, in), img);
 }
 
 // Mean held-out RMS over folds (leave-one-out up to max_folds views).
@@ -203,14 +198,10 @@ std::string fmt(const char* format, double a, double b = 0, double c = 0) {
 
 }  // namespace
 
-double heldOutRmsPx(const std::vector<cv::Point2f>& corners, const Intrinsics& intrinsics,
-                    const cv::Size& pattern_size, double square_size_m) {
-  return heldOut(boardPoints(pattern_size, square_size_m), corners, intrinsics);
-}
-
 CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
-                            const cv::Size& image_size, const CalibrationOptions& options) {
-  const size_t n_corners = static_cast<size_t>(options.pattern_size.area());
+                            const cv::Size& image_size, const BoardSpec& board_spec,
+                            const CalibrationOptions& options) {
+  const size_t n_corners = static_cast<size_t>(board_spec.cornerCount());
   for (size_t v = 0; v < views.size(); ++v) {
     if (views[v].size() != n_corners) {
       throw InputError("view " + std::to_string(v) + " has " + std::to_string(views[v].size()) +
@@ -230,14 +221,12 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   // All views alike (one pose seen again and again): the focal length and the distance along
   // the optical axis cannot be told apart, whatever the fit reports.
   {
-    ViewSelectionOptions sel;
-    sel.pattern_size = options.pattern_size;
-    sel.square_size_m = options.square_size_m;
+    const ViewSelectionOptions sel;
     std::array<double, 6> lo, hi;
     lo.fill(1e9);
     hi.fill(-1e9);
     for (const auto& v : views) {
-      const auto a = computeViewParams(v, image_size, sel).asArray();
+      const auto a = computeViewParams(v, image_size, board_spec, sel).asArray();
       for (size_t k = 0; k < 6; ++k) {
         lo[k] = std::min(lo[k], a[k]);
         hi[k] = std::max(hi[k], a[k]);
@@ -255,7 +244,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     }
   }
 
-  const Points3 board = boardPoints(options.pattern_size, options.square_size_m);
+  const Points3 board = board_spec.points();
   const std::vector<TermSet> sets = termSets(options.model);
   // Outliers are judged with the middle term set: flexible enough for real lenses, too stiff to
   // absorb a bad view.
@@ -405,7 +394,9 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     size_t level = sets.size() - 1;
     Fit f = fit(obj, img, image_size, options.model, sets[level].flags);
     const auto fitLevel = [&](size_t l) {
-      return (l == judge_level && judge_fit) ? *judge_fit : fit(obj, img, image_size, options.model, sets[l].flags);
+      return (l == judge_level && judge_fit)
+                 ? *judge_fit
+                 : fit(obj, img, image_size, options.model, sets[l].flags);
     };
     while (level > 0) {
       // The simpler model nests in this one, so at the optimum this one's RMS is lower. When it
@@ -416,18 +407,22 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       bool significant = false;
       std::string why, verdict = fmt(": fixed at 0 (t < %.1f)", options.min_term_significance);
       if (f.rms_px >= simpler.rms_px) {
-        why = sets[level].name + fmt(" does not lower the RMS (%.4f px, without: %.4f px)", f.rms_px, simpler.rms_px);
+        why = sets[level].name +
+              fmt(" does not lower the RMS (%.4f px, without: %.4f px)", f.rms_px, simpler.rms_px);
         verdict = ": its added terms fixed at 0";
       } else {
         for (int i : sets[level].added) {
-          const double value = f.intrinsics.distortion[static_cast<size_t>(i)];
+          const double value = f.intrinsics.distortion_coefficients[static_cast<size_t>(i)];
           const double sigma = f.std_devs[4 + static_cast<size_t>(i)];
-          const double t = sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
+          const double t =
+              sigma > 0 ? std::abs(value) / sigma : std::numeric_limits<double>::infinity();
           significant = significant || t >= options.min_term_significance;
-          why += (why.empty() ? "" : ", ") + term_name(i) + fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
+          why += (why.empty() ? "" : ", ") + term_name(i) +
+                 fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
         }
       }
-      result.selection_reason += (result.selection_reason.empty() ? "" : "; ") + why + (significant ? ": kept" : verdict);
+      result.selection_reason +=
+          (result.selection_reason.empty() ? "" : "; ") + why + (significant ? ": kept" : verdict);
       if (significant) break;
       --level;
       f = std::move(simpler);
@@ -469,24 +464,24 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
 }
 
 HoldoutEvaluation leaveOneOut(const std::vector<std::vector<cv::Point2f>>& views,
-                              const cv::Size& image_size, const CalibrationOptions& options,
-                              HoldoutMethod method) {
+                              const cv::Size& image_size, const BoardSpec& board_spec,
+                              const CalibrationOptions& options, HoldoutMethod method) {
   HoldoutEvaluation e;
-  const Points3 board = boardPoints(options.pattern_size, options.square_size_m);
+  const Points3 board = board_spec.points();
   for (size_t held = 0; held < views.size(); ++held) {
     std::vector<Points2> train;
     for (size_t v = 0; v < views.size(); ++v) {
       if (v != held) train.push_back(views[v]);
     }
-    Intrinsics in;
+    CameraIntrinsics in;
     if (method == HoldoutMethod::kAutocal) {
-      in = calibrate(train, image_size, options).intrinsics;
+      in = calibrate(train, image_size, board_spec, options).intrinsics;
     } else {
       const std::vector<Points3> obj(train.size(), board);
       in = fit(obj, train, image_size, DistortionModel::kPlumbBob, 0, nullptr, true).intrinsics;
     }
     e.fold_rms_px.push_back(heldOut(board, views[held], in));
-    e.fold_fx_px.push_back(in.fx());
+    e.fold_fx_px.push_back(in.fx);
   }
   if (!views.empty()) {
     e.mean_rms_px = std::accumulate(e.fold_rms_px.begin(), e.fold_rms_px.end(), 0.0) /
@@ -513,23 +508,21 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
                       std::to_string(gate.min_views));
   }
   if (r.std_devs.size() >= 2) {
-    const double rel =
-        std::max(r.std_devs[0] / r.intrinsics.fx(), r.std_devs[1] / r.intrinsics.fy());
+    const double rel = std::max(r.std_devs[0] / r.intrinsics.fx, r.std_devs[1] / r.intrinsics.fy);
     if (!(rel <= gate.max_focal_rel_std)) {
       reasons.push_back(fmt("focal length uncertain: std dev %.2f %% > %.2f %%", 100 * rel,
                             100 * gate.max_focal_rel_std));
     }
   }
-  const cv::Size s = r.intrinsics.image_size;
-  const double dx = std::abs(r.intrinsics.cx() - s.width / 2.0) / s.width;
-  const double dy = std::abs(r.intrinsics.cy() - s.height / 2.0) / s.height;
+  const cv::Size s = r.intrinsics.imageSize();
+  const double dx = std::abs(r.intrinsics.cx - s.width / 2.0) / s.width;
+  const double dy = std::abs(r.intrinsics.cy - s.height / 2.0) / s.height;
   if (!(std::max(dx, dy) <= gate.max_principal_offset_ratio)) {
     reasons.push_back(fmt("principal point (%.1f, %.1f) px too far from the image centre",
-                          r.intrinsics.cx(), r.intrinsics.cy()) +
+                          r.intrinsics.cx, r.intrinsics.cy) +
                       fmt(" (> %.0f %% of the image size)", 100 * gate.max_principal_offset_ratio));
   }
-  if (!(r.intrinsics.fx() > 0 && r.intrinsics.fy() > 0))
-    reasons.push_back("focal length not positive");
+  if (!(r.intrinsics.fx > 0 && r.intrinsics.fy > 0)) reasons.push_back("focal length not positive");
   return reasons;
 }
 

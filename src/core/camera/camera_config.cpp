@@ -8,14 +8,6 @@
 namespace autocal {
 namespace camera {
 
-void CameraCalibrationConfig::setBoard(const cv::Size& pattern_size, double square_size_m) {
-  detector.pattern_size = pattern_size;
-  selection.pattern_size = pattern_size;
-  calibration.pattern_size = pattern_size;
-  selection.square_size_m = square_size_m;
-  calibration.square_size_m = square_size_m;
-}
-
 cv::Size parseBoardSize(const std::string& text) {
   int cols = 0, rows = 0;
   char x = 0, extra = 0;
@@ -36,7 +28,7 @@ void CameraCalibrationConfig::validate() const {
   auto check = [](bool ok, const std::string& key, const std::string& what) {
     if (!ok) throw ConfigError(key + ": " + what);
   };
-  check(calibration.square_size_m > 0, "board.square_size_m", "must be > 0");
+  board.validate();
   check(detector.max_boards >= 1, "detection.max_boards", "must be >= 1");
   check(detector.refine_window_ratio > 0 && detector.refine_window_ratio < 0.5,
         "detection.refine_window_ratio",
@@ -73,8 +65,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
   CameraCalibrationConfig c;
   {
     YamlMap b = root.map("board");
-    c.setBoard(parseBoardSize(b.required<std::string>("inner_corners")),
-               b.required<double>("square_size_m"));
+    c.board.inner_corners = parseBoardSize(b.required<std::string>("inner_corners"));
+    c.board.square_size_m = b.required<double>("square_size_m");
     b.finish();
   }
   {

@@ -6,9 +6,42 @@
 #include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
+#include "autocal/io/format.h"
 
 namespace autocal {
 namespace camera {
+
+std::vector<cv::Point3f> BoardSpec::points() const {
+  std::vector<cv::Point3f> points;
+  for (int r = 0; r < inner_corners.height; ++r) {
+    for (int c = 0; c < inner_corners.width; ++c) {
+      points.emplace_back(static_cast<float>(c * square_size_m),
+                          static_cast<float>(r * square_size_m), 0.0f);
+    }
+  }
+  return points;
+}
+
+std::string BoardSpec::describe() const {
+  return std::to_string(inner_corners.width) + "x" + std::to_string(inner_corners.height) + ", " +
+         formatNumber(square_size_m) + " m squares";
+}
+
+void BoardSpec::validate() const {
+  if (inner_corners.width < 3 || inner_corners.height < 3) {
+    throw ConfigError("board.inner_corners: needs at least 3x3 inner corners, got " +
+                      std::to_string(inner_corners.width) + "x" +
+                      std::to_string(inner_corners.height));
+  }
+  if (inner_corners.width == inner_corners.height) {
+    throw ConfigError(
+        "board.inner_corners: a square board's orientation is ambiguous; use one with different "
+        "numbers of inner corners per row and column");
+  }
+  if (!(square_size_m > 0) || !std::isfinite(square_size_m)) {
+    throw ConfigError("board.square_size_m: must be > 0, got " + formatNumber(square_size_m));
+  }
+}
 
 cv::Mat toGray(const cv::Mat& image) {
   if (image.empty()) throw InputError("empty image");
@@ -28,7 +61,8 @@ cv::Mat toGray(const cv::Mat& image) {
   }
 }
 
-double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const cv::Size& pattern_size) {
+double minCornerSpacingPx(const std::vector<cv::Point2f>& corners, const BoardSpec& board) {
+  const cv::Size& pattern_size = board.inner_corners;
   double best = std::numeric_limits<double>::infinity();
   for (int r = 0; r < pattern_size.height; ++r) {
     for (int c = 0; c < pattern_size.width; ++c) {
@@ -64,8 +98,9 @@ std::vector<cv::Point> grownHull(const std::vector<cv::Point2f>& corners, const 
 
 }  // namespace
 
-std::vector<BoardDetection> detectChessboards(const cv::Mat& gray_in,
+std::vector<BoardDetection> detectChessboards(const cv::Mat& gray_in, const BoardSpec& board_spec,
                                               const ChessboardDetectorOptions& options) {
+  const cv::Size& pattern_size = board_spec.inner_corners;
   cv::Mat gray = toGray(gray_in);
   std::vector<BoardDetection> boards;
   cv::Mat work;  // copied only when a second search is needed
@@ -81,7 +116,7 @@ std::vector<BoardDetection> detectChessboards(const cv::Mat& gray_in,
     if (precheck) {
       cv::Mat half;
       cv::resize(*search, half, cv::Size(search->cols / 2, search->rows / 2), 0, 0, cv::INTER_AREA);
-      if (!cv::checkChessboard(half, options.pattern_size)) break;
+      if (!cv::checkChessboard(half, pattern_size)) break;
     }
     std::vector<cv::Point2f> corners;
     // A further board is searched with a global threshold: with OpenCV's adaptive thresholds, a
@@ -89,8 +124,8 @@ std::vector<BoardDetection> detectChessboards(const cv::Mat& gray_in,
     // dilation and takes 100-500 ms on the simulator's frames; this one fails in a few ms and
     // finds the same further boards there (96 of 96 on 70 frames of the sim's pivot scene).
     const int search_flags = i == 0 ? flags : (flags & ~cv::CALIB_CB_ADAPTIVE_THRESH);
-    if (!cv::findChessboardCorners(*search, options.pattern_size, corners, search_flags)) break;
-    if (static_cast<int>(corners.size()) != options.pattern_size.area()) break;
+    if (!cv::findChessboardCorners(*search, pattern_size, corners, search_flags)) break;
+    if (static_cast<int>(corners.size()) != pattern_size.area()) break;
     BoardDetection board;
     board.corners = corners;
     boards.push_back(board);
@@ -98,21 +133,20 @@ std::vector<BoardDetection> detectChessboards(const cv::Mat& gray_in,
     if (work.empty()) work = gray.clone();
     // Paint the board's area a flat mid grey: the next search cannot pick any of its corners.
     const cv::Scalar grey = cv::mean(gray);
-    cv::fillConvexPoly(work, grownHull(corners, options.pattern_size), grey);
+    cv::fillConvexPoly(work, grownHull(corners, pattern_size), grey);
     search = &work;
   }
   return boards;
 }
 
-void refineCorners(const cv::Mat& gray_in, BoardDetection& board,
+void refineCorners(const cv::Mat& gray_in, const BoardSpec& spec, BoardDetection& board,
                    const ChessboardDetectorOptions& options) {
   cv::Mat gray = toGray(gray_in);
-  const double spacing = minCornerSpacingPx(board.corners, options.pattern_size);
+  const double spacing = minCornerSpacingPx(board.corners, spec);
   int half = static_cast<int>(std::ceil(spacing * options.refine_window_ratio));
   half = std::clamp(half, options.refine_min_half_window_px, options.refine_max_half_window_px);
   cv::cornerSubPix(gray, board.corners, cv::Size(half, half), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 40, 1e-4));
-  board.refined = true;
 }
 
 namespace {

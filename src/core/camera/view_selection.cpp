@@ -7,7 +7,6 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "autocal/camera/calibration.h"
 #include "autocal/errors.h"
 
 namespace autocal {
@@ -22,8 +21,8 @@ double angleAt(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c)
 }  // namespace
 
 ViewParams computeViewParams(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
-                             const ViewSelectionOptions& options) {
-  const int w = options.pattern_size.width, h = options.pattern_size.height;
+                             const BoardSpec& board, const ViewSelectionOptions& options) {
+  const int w = board.inner_corners.width, h = board.inner_corners.height;
   const cv::Point2d up_left = corners[0], up_right = corners[w - 1],
                     down_right = corners[h * w - 1], down_left = corners[(h - 1) * w];
   // Same definitions as ROS camera_calibration's get_parameters().
@@ -44,8 +43,15 @@ ViewParams computeViewParams(const std::vector<cv::Point2f>& corners, const cv::
   const double f = options.nominal_focal_width_ratio * image_size.width;
   const cv::Matx33d k(f, 0, image_size.width / 2.0, 0, f, image_size.height / 2.0, 0, 0, 1);
   cv::Vec3d rvec, tvec;
-  if (cv::solvePnP(boardPoints(options.pattern_size, options.square_size_m), corners, k,
-                   cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE)) {
+  bool posed = false;
+  try {
+    posed = cv::solvePnP(board.points(), corners, k, cv::noArray(), rvec, tvec, false,
+                         cv::SOLVEPNP_IPPE);
+  } catch (const cv::Exception&) {
+    // A degenerate view (corners collinear, or a board seen edge-on): no distance or tilt.
+    posed = false;
+  }
+  if (posed) {
     cv::Matx33d r;
     cv::Rodrigues(rvec, r);
     v.distance_m = cv::norm(tvec);
@@ -73,11 +79,9 @@ bool FrameResult::any_kept() const {
                      [](const ViewDecision& d) { return d.kept; });
 }
 
-ViewCollector::ViewCollector(const ChessboardDetectorOptions& detector,
+ViewCollector::ViewCollector(const BoardSpec& board, const ChessboardDetectorOptions& detector,
                              const ViewSelectionOptions& selection)
-    : detector_(detector), selection_(selection) {
-  selection_.pattern_size = detector_.pattern_size;
-}
+    : board_(board), detector_(detector), selection_(selection) {}
 
 FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& source) {
   if (image.empty()) throw InputError(source + ": empty or undecodable image");
@@ -91,13 +95,13 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
   const int frame_index = frames_++;
   const cv::Mat gray = toGray(image);
   FrameResult result;
-  std::vector<BoardDetection> boards = detectChessboards(gray, detector_);
+  std::vector<BoardDetection> boards = detectChessboards(gray, board_, detector_);
   result.boards_found = static_cast<int>(boards.size());
   for (BoardDetection& board : boards) {
     // Cheap judgement first; the slow sub-pixel refinement only for views that are kept.
     ViewDecision d = judge(board.corners, edgeWidthPx(gray, board.corners));
     if (d.kept) {
-      refineCorners(gray, board, detector_);
+      refineCorners(gray, board_, board, detector_);
       d.corners = board.corners;
       CalibrationView v;
       v.corners = board.corners;
@@ -135,7 +139,7 @@ ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, doubl
   d.corners = corners;
   d.edge_width_px = edge_width_px;
   char buf[160];
-  if (static_cast<int>(corners.size()) != selection_.pattern_size.area()) {
+  if (static_cast<int>(corners.size()) != board_.cornerCount()) {
     d.reason = "wrong corner count " + std::to_string(corners.size());
     return d;
   }
@@ -145,7 +149,7 @@ ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, doubl
       return d;
     }
   }
-  d.params = computeViewParams(corners, image_size_, selection_);
+  d.params = computeViewParams(corners, image_size_, board_, selection_);
   if (!(edge_width_px <= selection_.max_edge_width_px)) {
     std::snprintf(buf, sizeof buf, "blurred: edge width %.1f px > %.1f px", edge_width_px,
                   selection_.max_edge_width_px);

@@ -16,8 +16,8 @@ DiffDriveMultipliers OdometryCalibration::multipliers() const {
   // diff_drive_controller scales each nominal wheel radius and the separation: a wheel's
   // distance per pulse is proportional to its radius, so the factors are the multipliers.
   DiffDriveMultipliers m;
-  m.left_wheel_radius_multiplier = c_L;
-  m.right_wheel_radius_multiplier = c_R;
+  m.left_wheel_radius_multiplier = left_pulse_factor;
+  m.right_wheel_radius_multiplier = right_pulse_factor;
   m.wheel_separation_multiplier = wheelbase_m / wheelbase_nominal_m;
   return m;
 }
@@ -34,8 +34,8 @@ void checkOdometryCalibration(const OdometryCalibration& c) {
   positive(c.Eb, "Eb");
   positive(c.wheelbase_nominal_m, "wheelbase_nominal_m");
   positive(c.wheelbase_m, "wheelbase_m");
-  positive(c.c_L, "c_L");
-  positive(c.c_R, "c_R");
+  positive(c.left_pulse_factor, "c_L");
+  positive(c.right_pulse_factor, "c_R");
   if (c.Ed < 0.8 || c.Ed > 1.25) {
     fail("Ed = " + std::to_string(c.Ed) +
          " is outside [0.8, 1.25] (wheels differing by more "
@@ -61,8 +61,8 @@ std::string odometryCalibrationYaml(const OdometryCalibration& c, const std::str
   out << YAML::Key << "Eb" << YAML::Value << c.Eb;
   out << YAML::Key << "b" << YAML::Value << c.wheelbase_m;
   out << YAML::Key << "b_nominal" << YAML::Value << c.wheelbase_nominal_m;
-  out << YAML::Key << "c_L" << YAML::Value << c.c_L;
-  out << YAML::Key << "c_R" << YAML::Value << c.c_R;
+  out << YAML::Key << "c_L" << YAML::Value << c.left_pulse_factor;
+  out << YAML::Key << "c_R" << YAML::Value << c.right_pulse_factor;
   if (c.left_m_per_pulse > 0.0) {
     out << YAML::Key << "left_m_per_pulse" << YAML::Value << c.left_m_per_pulse;
     out << YAML::Key << "right_m_per_pulse" << YAML::Value << c.right_m_per_pulse;

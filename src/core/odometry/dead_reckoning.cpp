@@ -52,15 +52,15 @@ Pose2D integrateStep(const Pose2D& pose, double left_m, double right_m, double w
   const double ds = 0.5 * (right_m + left_m);
   const double dtheta = (right_m - left_m) / wheelbase_m;
   Pose2D out = pose;
-  out.theta_rad = pose.theta_rad + dtheta;
+  out.yaw_rad = pose.yaw_rad + dtheta;
   switch (integrator) {
     case Integrator::kEuler:
-      out.x_m += ds * std::cos(pose.theta_rad);
-      out.y_m += ds * std::sin(pose.theta_rad);
+      out.x_m += ds * std::cos(pose.yaw_rad);
+      out.y_m += ds * std::sin(pose.yaw_rad);
       break;
     case Integrator::kRungeKutta2:
-      out.x_m += ds * std::cos(pose.theta_rad + 0.5 * dtheta);
-      out.y_m += ds * std::sin(pose.theta_rad + 0.5 * dtheta);
+      out.x_m += ds * std::cos(pose.yaw_rad + 0.5 * dtheta);
+      out.y_m += ds * std::sin(pose.yaw_rad + 0.5 * dtheta);
       break;
     case Integrator::kExact:
       // Constant wheel speeds over the step make the centre move on a circle of radius
@@ -70,8 +70,8 @@ Pose2D integrateStep(const Pose2D& pose, double left_m, double right_m, double w
         const double half = 0.5 * dtheta;
         const double chord_factor =
             std::abs(half) < 1e-6 ? 1.0 - half * half / 6.0 : std::sin(half) / half;
-        out.x_m += ds * chord_factor * std::cos(pose.theta_rad + half);
-        out.y_m += ds * chord_factor * std::sin(pose.theta_rad + half);
+        out.x_m += ds * chord_factor * std::cos(pose.yaw_rad + half);
+        out.y_m += ds * chord_factor * std::sin(pose.yaw_rad + half);
       }
       break;
   }

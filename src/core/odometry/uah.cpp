@@ -6,18 +6,12 @@
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/io/format.h"
 
 namespace autocal {
 namespace odometry {
 
 namespace {
-
-std::string num(double v, int precision = 6) {
-  std::ostringstream ss;
-  ss.precision(precision);
-  ss << v;
-  return ss.str();
-}
 
 bool validRange(double r, const RoundDetectionOptions& o) {
   return std::isfinite(r) && r >= o.min_range_m && r <= o.max_range_m;
@@ -47,10 +41,10 @@ int argmaxIn(const std::vector<double>& r, int lo, int hi) {
 void RoundDetectionOptions::validate() const {
   if (!std::isfinite(expected_pulses_per_round) || expected_pulses_per_round < 8.0) {
     throw ConfigError("expected_pulses_per_round must be at least 8, got " +
-                      num(expected_pulses_per_round));
+                      formatNumber(expected_pulses_per_round));
   }
   if (!(window_fraction > 0.0 && window_fraction < 0.5)) {
-    throw ConfigError("window_fraction must be in (0, 0.5), got " + num(window_fraction));
+    throw ConfigError("window_fraction must be in (0, 0.5), got " + formatNumber(window_fraction));
   }
   if (!(max_range_m > min_range_m)) throw ConfigError("max_range_m must exceed min_range_m");
   if (!(max_gap_pulses >= 0.0)) throw ConfigError("max_gap_pulses must be non-negative");
@@ -146,12 +140,12 @@ RoundDetection detectWholeRound(const std::vector<RangeSample>& samples,
   const int hi = static_cast<int>(std::ceil(nt * (1.0 + options.window_fraction)));
   // The correlation at a lag of one round needs at least about half a round of overlap.
   if (n < hi + nt / 2) {
-    throw CalibrationError("the readings cover " + num(det.rounds_covered, 3) +
+    throw CalibrationError("the readings cover " + formatNumber(det.rounds_covered, 3) +
                            " rounds; whole-round detection needs at least " +
-                           num((hi + nt / 2) / nt, 3) + " (turn more rounds)");
+                           formatNumber((hi + nt / 2) / nt, 3) + " (turn more rounds)");
   }
   if (det.valid_fraction < 0.5) {
-    throw CalibrationError("only " + num(100 * det.valid_fraction, 3) +
+    throw CalibrationError("only " + formatNumber(100 * det.valid_fraction, 3) +
                            " % of the pulse axis has a range reading (dropouts or out of range)");
   }
 
@@ -185,19 +179,21 @@ RoundDetection detectWholeRound(const std::vector<RangeSample>& samples,
     det.secondary_lag_pulses = secondary;
   }
   if (r[k1] < options.min_peak_correlation) {
-    throw CalibrationError("weak whole-round peak: correlation " + num(r[k1], 3) + " < " +
-                           num(options.min_peak_correlation, 3) +
+    throw CalibrationError("weak whole-round peak: correlation " + formatNumber(r[k1], 3) + " < " +
+                           formatNumber(options.min_peak_correlation, 3) +
                            " (scene too noisy, too far or changing while turning)");
   }
   if (secondary >= 0 && r[secondary] >= options.max_secondary_ratio * r[k1]) {
-    throw CalibrationError(
-        "ambiguous whole round: the range signal repeats after " + num(secondary, 4) + " pulses (" +
-        num(secondary / nt, 3) + " of a round, correlation " + num(r[secondary], 3) + " against " +
-        num(r[k1], 3) + " at the round): the scene is symmetric or periodic; make it irregular");
+    throw CalibrationError("ambiguous whole round: the range signal repeats after " +
+                           formatNumber(secondary, 4) + " pulses (" +
+                           formatNumber(secondary / nt, 3) + " of a round, correlation " +
+                           formatNumber(r[secondary], 3) + " against " + formatNumber(r[k1], 3) +
+                           " at the round): the scene is symmetric or periodic; make it irregular");
   }
   if (k1 == lo || k1 == hi) {
     throw CalibrationError("the autocorrelation peak lies on the edge of the search window (" +
-                           num(k1, 5) + " pulses, window " + num(lo, 5) + ".." + num(hi, 5) +
+                           formatNumber(k1, 5) + " pulses, window " + formatNumber(lo, 5) + ".." +
+                           formatNumber(hi, 5) +
                            "): the expected pulses per round are wrong or the scene misleads");
   }
   // Refine below one pulse: vertex of the parabola through the peak and its neighbours.
@@ -245,9 +241,10 @@ EdEstimate estimateEd(const std::vector<double>& right_pulses_left_stopped,
   if (e.right_relative_spread > max_relative_spread ||
       e.left_relative_spread > max_relative_spread) {
     throw CalibrationError("the pivot experiments disagree: spread " +
-                           num(100 * e.right_relative_spread, 3) + " % (left stopped), " +
-                           num(100 * e.left_relative_spread, 3) + " % (right stopped), limit " +
-                           num(100 * max_relative_spread, 3) + " % (wheel slipping?)");
+                           formatNumber(100 * e.right_relative_spread, 3) + " % (left stopped), " +
+                           formatNumber(100 * e.left_relative_spread, 3) +
+                           " % (right stopped), limit " +
+                           formatNumber(100 * max_relative_spread, 3) + " % (wheel slipping?)");
   }
   // §2.2: 2π·b' = N_R·c_R = N_L·c_L  ⇒  Ed = D_R/D_L = c_R/c_L = N_L/N_R.
   e.Ed = e.left_pulses_per_round / e.right_pulses_per_round;
@@ -277,10 +274,10 @@ MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
     // close to the initial one; reject the run otherwise.
     if (!(std::abs(run.max_heading_deviation_rad) <= options.max_heading_deviation_rad)) {
       e.rejected_runs.push_back(static_cast<int>(i));
-      e.rejection_reasons.push_back("run " + std::to_string(i) + ": heading deviated " +
-                                    num(run.max_heading_deviation_rad * 180 / M_PI, 3) + " deg > " +
-                                    num(options.max_heading_deviation_rad * 180 / M_PI, 3) +
-                                    " deg");
+      e.rejection_reasons.push_back(
+          "run " + std::to_string(i) + ": heading deviated " +
+          formatNumber(run.max_heading_deviation_rad * 180 / M_PI, 3) + " deg > " +
+          formatNumber(options.max_heading_deviation_rad * 180 / M_PI, 3) + " deg");
       continue;
     }
     e.accepted_runs.push_back(static_cast<int>(i));
@@ -303,7 +300,7 @@ double maxHeadingDeviationRad(const std::vector<std::pair<double, double>>& cumu
   for (size_t i = 1; i < cumulative_pulses.size(); ++i) {
     dr.addPulses(cumulative_pulses[i].first - cumulative_pulses[i - 1].first,
                  cumulative_pulses[i].second - cumulative_pulses[i - 1].second);
-    worst = std::max(worst, std::abs(dr.pose().theta_rad));
+    worst = std::max(worst, std::abs(dr.pose().yaw_rad));
   }
   return worst;
 }
@@ -332,16 +329,16 @@ OdometryCalibration UahResult::toOdometryCalibration(const std::string& vehicle)
   c.wheelbase_nominal_m = nominal.wheelbase_m;
   c.wheelbase_m = calibrated.wheelbase_m;
   c.Eb = calibrated.wheelbase_m / nominal.wheelbase_m;
-  c.c_L = calibrated.left_m_per_pulse / nominal.left_m_per_pulse;
-  c.c_R = calibrated.right_m_per_pulse / nominal.right_m_per_pulse;
+  c.left_pulse_factor = calibrated.left_m_per_pulse / nominal.left_m_per_pulse;
+  c.right_pulse_factor = calibrated.right_m_per_pulse / nominal.right_m_per_pulse;
   c.left_m_per_pulse = calibrated.left_m_per_pulse;
   c.right_m_per_pulse = calibrated.right_m_per_pulse;
-  c.inputs = {{"right_pulses_per_round_left_stopped", num(ed.right_pulses_per_round, 10)},
-              {"left_pulses_per_round_right_stopped", num(ed.left_pulses_per_round, 10)},
+  c.inputs = {{"right_pulses_per_round_left_stopped", formatNumber(ed.right_pulses_per_round)},
+              {"left_pulses_per_round_right_stopped", formatNumber(ed.left_pulses_per_round)},
               {"straight_runs_accepted", std::to_string(straight.accepted_runs.size())},
               {"straight_runs_rejected", std::to_string(straight.rejected_runs.size())},
-              {"pivot_radius_m", num(wheelbase.pivot_radius_m, 10)},
-              {"pivot_to_spin_ratio", num(wheelbase.pivot_to_spin_ratio, 10)}};
+              {"pivot_radius_m", formatNumber(wheelbase.pivot_radius_m)},
+              {"pivot_to_spin_ratio", formatNumber(wheelbase.pivot_to_spin_ratio)}};
   return c;
 }
 

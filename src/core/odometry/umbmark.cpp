@@ -1,12 +1,13 @@
 #include "autocal/odometry/umbmark.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <Eigen/Dense>
 #include <cmath>
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal/io/yaml_reader.h"
+#include "square_model.h"
 
 namespace autocal {
 namespace odometry {
@@ -36,13 +37,6 @@ ReturnError centreOfGravity(const std::vector<ReturnError>& errors) {
   return cg;
 }
 
-std::string num(double v) {
-  std::ostringstream ss;
-  ss.precision(10);
-  ss << v;
-  return ss.str();
-}
-
 // The exact square model: the return errors (x_cw, y_cw, x_ccw, y_ccw) of a robot whose true
 // parameters are the nominal ones corrected by (Ed, Eb), driven by nominal odometry. The
 // distance per pulse cancels out of the geometry, so any nominal value serves.
@@ -70,11 +64,12 @@ std::string toString(UmbmarkExpressions expressions) {
 
 void UmbmarkOptions::validate() const {
   if (!std::isfinite(side_m) || side_m <= 0.0) {
-    throw ConfigError("side_m: the side of the square must be positive, got " + num(side_m));
+    throw ConfigError("side_m: the side of the square must be positive, got " +
+                      formatNumber(side_m));
   }
   if (!std::isfinite(wheelbase_m) || wheelbase_m <= 0.0) {
     throw ConfigError("wheelbase_m: the nominal wheelbase must be positive, got " +
-                      num(wheelbase_m));
+                      formatNumber(wheelbase_m));
   }
   if (!(min_abs_beta_rad > 0.0)) throw ConfigError("min_abs_beta_rad must be positive");
 }
@@ -116,14 +111,16 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
   const double beta0 = (gcw.x_m - gccw.x_m) / (-4.0 * L);
   if (!(std::abs(beta0) >= options.min_abs_beta_rad)) {
     throw CalibrationError(
-        "beta = " + num(beta0) + " rad is below " + num(options.min_abs_beta_rad) +
+        "beta = " + formatNumber(beta0) + " rad is below " +
+        formatNumber(options.min_abs_beta_rad) +
         " rad (x_cg_cw and x_cg_ccw are equal within precision): the radius R of the legs is "
         "unbounded, so Ed = 1 within the precision of these errors and there is no wheel "
         "diameter ratio to correct; nothing was computed");
   }
   if (!(std::abs(alpha0) < 0.5 * M_PI) || !(std::abs(beta0) < 0.5 * M_PI)) {
-    throw CalibrationError("the return errors are too large for a square of side " + num(L) +
-                           " m (alpha = " + num(alpha0) + " rad, beta = " + num(beta0) +
+    throw CalibrationError("the return errors are too large for a square of side " +
+                           formatNumber(L) + " m (alpha = " + formatNumber(alpha0) +
+                           " rad, beta = " + formatNumber(beta0) +
                            " rad): check the units (metres) and the side");
   }
 
@@ -134,7 +131,7 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
     // wheels run at R ± b/2 with the NOMINAL b, so Ed = D_R/D_L = (R + b/2)/(R − b/2).
     r.R_m = (L / 2.0) / std::sin(beta0 / 2.0);
     if (!(std::abs(r.R_m) > b / 2.0)) {
-      throw CalibrationError("R = " + num(r.R_m) +
+      throw CalibrationError("R = " + formatNumber(r.R_m) +
                              " m is not larger than b/2: the return "
                              "errors are too large for this square and wheelbase");
     }
@@ -181,18 +178,18 @@ UmbmarkResult computeUmbmark(const std::vector<ReturnError>& cw,
     // length L: R = L/β, and then Ed = (R + b_actual/2)/(R − b_actual/2) holds exactly.
     r.beta_rad = 2.0 * L * (r.Ed - 1.0) / ((r.Ed + 1.0) * r.Eb * b);
     if (!(std::abs(r.beta_rad) >= options.min_abs_beta_rad)) {
-      throw CalibrationError("beta = " + num(r.beta_rad) +
+      throw CalibrationError("beta = " + formatNumber(r.beta_rad) +
                              " rad: R is unbounded, Ed = 1 within the precision of the data");
     }
     r.R_m = L / r.beta_rad;
   }
   if (!std::isfinite(r.Ed) || r.Ed <= 0.0 || !std::isfinite(r.Eb) || r.Eb <= 0.0) {
-    throw CalibrationError("UMBmark gave Ed = " + num(r.Ed) + ", Eb = " + num(r.Eb) +
-                           ": not a usable correction");
+    throw CalibrationError("UMBmark gave Ed = " + formatNumber(r.Ed) +
+                           ", Eb = " + formatNumber(r.Eb) + ": not a usable correction");
   }
   r.wheelbase_actual_m = r.Eb * b;
-  r.c_L = 2.0 / (r.Ed + 1.0);
-  r.c_R = 2.0 / (1.0 / r.Ed + 1.0);
+  r.left_pulse_factor = 2.0 / (r.Ed + 1.0);
+  r.right_pulse_factor = 2.0 / (1.0 / r.Ed + 1.0);
   return r;
 }
 
@@ -207,17 +204,17 @@ OdometryCalibration toOdometryCalibration(const UmbmarkResult& result,
   c.Eb = result.Eb;
   c.wheelbase_nominal_m = options.wheelbase_m;
   c.wheelbase_m = result.wheelbase_actual_m;
-  c.c_L = result.c_L;
-  c.c_R = result.c_R;
+  c.left_pulse_factor = result.left_pulse_factor;
+  c.right_pulse_factor = result.right_pulse_factor;
   c.inputs = {{"errors_file", "'" + errors_file + "'"},
-              {"side_m", num(options.side_m)},
-              {"wheelbase_nominal_m", num(options.wheelbase_m)},
+              {"side_m", formatNumber(options.side_m)},
+              {"wheelbase_nominal_m", formatNumber(options.wheelbase_m)},
               {"runs_cw", std::to_string(result.runs_cw)},
               {"runs_ccw", std::to_string(result.runs_ccw)},
-              {"x_cg_cw_m", num(result.x_cg_cw_m)},
-              {"y_cg_cw_m", num(result.y_cg_cw_m)},
-              {"x_cg_ccw_m", num(result.x_cg_ccw_m)},
-              {"y_cg_ccw_m", num(result.y_cg_ccw_m)}};
+              {"x_cg_cw_m", formatNumber(result.x_cg_cw_m)},
+              {"y_cg_cw_m", formatNumber(result.y_cg_cw_m)},
+              {"x_cg_ccw_m", formatNumber(result.x_cg_ccw_m)},
+              {"y_cg_ccw_m", formatNumber(result.y_cg_ccw_m)}};
   return c;
 }
 
@@ -246,64 +243,30 @@ ReturnError simulateUmbmarkSquare(const DiffDriveParams& truth, const DiffDriveP
 
 void loadUmbmarkErrors(const std::string& path, std::vector<ReturnError>* cw,
                        std::vector<ReturnError>* ccw) {
-  YAML::Node root;
+  // The errors are measurements, so a malformed file is bad input (not bad configuration): the
+  // one YAML reader's ConfigError, with its file, line and key, becomes an InputError.
   try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw IoError(path + ": cannot open the file");
-  } catch (const YAML::Exception& e) {
-    throw InputError(path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
-  auto at = [&](const YAML::Node& n) {
-    return path + (n.Mark().line >= 0 ? ":" + std::to_string(n.Mark().line + 1) : "");
-  };
-  if (!root.IsMap()) {
-    throw InputError(path + ": expected a map with the keys cw and ccw (lists of [x, y] in m)");
-  }
-  for (const auto& kv : root) {
-    const std::string key = kv.first.Scalar();
-    if (key != "cw" && key != "ccw") {
-      throw InputError(at(kv.first) + ": " + key + ": unknown key (expected cw and ccw)");
-    }
-  }
-  auto readList = [&](const char* key, std::vector<ReturnError>* out) {
-    out->clear();
-    const YAML::Node list = root[key];
-    if (!list.IsDefined() || list.IsNull()) {
-      throw InputError(path + ": " + key + ": missing; UMBmark needs runs in both directions");
-    }
-    if (!list.IsSequence()) throw InputError(at(list) + ": " + key + ": expected a list");
-    for (size_t i = 0; i < list.size(); ++i) {
-      const YAML::Node item = list[i];
-      const std::string name = std::string(key) + "[" + std::to_string(i) + "]";
-      if (!item.IsSequence() || item.size() != 2) {
-        throw InputError(at(item) + ": " + name + ": expected a pair [x, y] in metres");
+    YamlMap root = YamlMap::loadFile(path);
+    auto readList = [&](const char* key, std::vector<ReturnError>* out) {
+      if (!root.has(key)) root.fail(key, "missing; UMBmark needs runs in both directions");
+      const auto pairs = root.required<std::vector<std::vector<double>>>(key);
+      if (pairs.empty()) {
+        root.fail(key, "the list is empty; UMBmark needs at least one run in each direction");
       }
-      double v[2];
-      for (int k = 0; k < 2; ++k) {
-        bool ok = item[k].IsScalar();
-        if (ok) {
-          try {
-            v[k] = item[k].as<double>();
-          } catch (const YAML::Exception&) {
-            ok = false;
-          }
+      out->clear();
+      for (size_t i = 0; i < pairs.size(); ++i) {
+        if (pairs[i].size() != 2) {
+          root.fail(key, "entry " + std::to_string(i) + ": expected a pair [x, y] in metres");
         }
-        if (!ok || !std::isfinite(v[k])) {
-          throw InputError(at(item) + ": " + name + ": expected numbers, got '" +
-                           (item[k].IsScalar() ? item[k].Scalar() : std::string("a list")) + "'");
-        }
+        out->push_back(ReturnError{pairs[i][0], pairs[i][1]});
       }
-      out->push_back(ReturnError{v[0], v[1]});
-    }
-    if (out->empty()) {
-      throw InputError(at(list) + ": " + key +
-                       ": the list is empty; UMBmark needs at least "
-                       "one run in each direction");
-    }
-  };
-  readList("cw", cw);
-  readList("ccw", ccw);
+    };
+    readList("cw", cw);
+    readList("ccw", ccw);
+    root.finish();
+  } catch (const ConfigError& e) {
+    throw InputError(e.what());
+  }
 }
 
 }  // namespace odometry

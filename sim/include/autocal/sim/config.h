@@ -6,21 +6,17 @@
 #include <string>
 #include <vector>
 
+#include "autocal/camera_intrinsics.h"
 #include "autocal/distortion_model.h"
+#include "autocal/pose2d.h"
 
 namespace autocal {
 namespace sim {
 
 using autocal::DistortionModel;
 
-/// Intrinsics and distortion of a pinhole camera.
-struct Intrinsics {
-  int width = 640;   ///< [px]
-  int height = 480;  ///< [px]
-  double fx = 0, fy = 0, cx = 0, cy = 0;  ///< [px]
-  DistortionModel distortion_model = DistortionModel::kPlumbBob;
-  std::vector<double> distortion_coefficients;  ///< ROS order (k1 k2 p1 p2 k3 [k4 k5 k6])
-};
+/// The simulator's lenses use the one intrinsics type of autocal.
+using Intrinsics = autocal::CameraIntrinsics;
 
 struct CameraConfig {
   Intrinsics truth;    ///< what the lens really does: the renderer uses it
@@ -69,9 +65,8 @@ struct RobotConfig {
   RangeSensorConfig range_sensor;
 };
 
-struct Pose2 {
-  double x_m = 0, y_m = 0, yaw_rad = 0;
-};
+/// The one planar pose type of autocal.
+using Pose2 = autocal::Pose2D;
 
 /// A vertical chessboard on a stand. Its printed side faces the direction yaw_rad.
 struct ChessboardConfig {

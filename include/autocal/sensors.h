@@ -1,0 +1,22 @@
+// What the robot's drivers report and take, as the core sees it (no ROS): wheel encoder readings
+// and wheel duties. The ROS layer converts the Duckietown messages to and from these.
+#pragma once
+
+#include <cstdint>
+
+namespace autocal {
+
+/// One reading of a wheel encoder.
+struct EncoderReading {
+  double stamp_s = 0.0;          ///< [s]
+  std::int32_t ticks = 0;        ///< cumulative count (may wrap around)
+  int ticks_per_revolution = 0;  ///< resolution [ticks/rev]
+};
+
+/// Duties of the two motors, −1..1 (Duckietown's wheels_cmd vel_left/vel_right).
+struct WheelDuties {
+  double left = 0.0;
+  double right = 0.0;
+};
+
+}  // namespace autocal

@@ -1,0 +1,142 @@
+#include "autocal/camera/calibration_files.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace camera {
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string viewImageName(size_t used_index) {
+  char name[32];
+  std::snprintf(name, sizeof name, "view_%03zu.png", used_index);
+  return name;
+}
+
+void removeAll(const fs::path& p) {
+  std::error_code ec;
+  fs::remove_all(p, ec);
+}
+
+void renameOrThrow(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::rename(from, to, ec);
+  if (ec) {
+    throw IoError("cannot rename '" + from.string() + "' to '" + to.string() +
+                  "': " + ec.message());
+  }
+}
+}  // namespace
+
+std::string viewsDirFor(const std::string& yaml_path) {
+  const fs::path p(yaml_path);
+  return (p.parent_path() / (p.stem().string() + "_views")).string();
+}
+
+std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
+                      const std::vector<CalibrationView>& views, const std::string& written_for) {
+  std::ostringstream y;
+  y << "# Views used for " << written_for << "; corners in pixels, pattern row-major order\n";
+  y << "board: {inner_corners: " << board.inner_corners.width << "x" << board.inner_corners.height
+    << ", square_size_m: " << formatNumber(board.square_size_m) << "}\n";
+  y << "image: {width: " << result.intrinsics.width << ", height: " << result.intrinsics.height
+    << "}\n";
+  y << "distortion_model: " << distortionModelName(result.intrinsics.distortion_model) << "\n";
+  y << "rms_px: " << formatNumber(result.rms_px) << "\nfitted_terms: \"" << result.fitted_terms
+    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\nviews:\n";
+  for (size_t u = 0; u < result.used_views.size(); ++u) {
+    const CalibrationView& v = views.at(static_cast<size_t>(result.used_views[u]));
+    y << "  - image: " << viewImageName(u) << "\n    source: \"" << v.source
+      << "\"\n    rms_px: " << formatNumber(result.per_view_rms_px[u]) << "\n    corners: [";
+    for (size_t c = 0; c < v.corners.size(); ++c) {
+      y << (c ? ", " : "") << "[" << formatNumber(v.corners[c].x) << ", "
+        << formatNumber(v.corners[c].y) << "]";
+    }
+    y << "]\n";
+  }
+  return y.str();
+}
+
+void writeCameraCalibration(const std::string& yaml_path, const std::string& yaml_text,
+                            const BoardSpec& board, const CalibrationResult& result,
+                            const std::vector<CalibrationView>& views,
+                            const std::map<int, cv::Mat>& frames) {
+  const fs::path yaml(yaml_path);
+  const fs::path dir = fs::path(viewsDirFor(yaml_path));
+  const fs::path prev_dir = dir.string() + ".prev";
+  std::error_code ec;
+  fs::create_directories(dir.parent_path().empty() ? fs::path(".") : dir.parent_path(), ec);
+  if (ec) throw IoError("cannot create '" + dir.parent_path().string() + "': " + ec.message());
+
+  // 1. The new folder, complete, under a temporary name.
+  std::string tmpl = (dir.parent_path() / ("." + dir.filename().string() + ".tmpXXXXXX")).string();
+  if (!::mkdtemp(tmpl.data())) {
+    throw IoError("cannot create a temporary folder beside '" + dir.string() + "'");
+  }
+  const fs::path tmp(tmpl);
+  try {
+    for (size_t u = 0; u < result.used_views.size(); ++u) {
+      const CalibrationView& v = views.at(static_cast<size_t>(result.used_views[u]));
+      const auto frame = frames.find(v.frame_index);
+      if (frame == frames.end()) {
+        throw IoError("no frame kept for view " + std::to_string(u) + " (" + v.source + ")");
+      }
+      std::vector<uchar> png;
+      if (!cv::imencode(".png", frame->second, png)) {
+        throw IoError("cannot encode " + viewImageName(u));
+      }
+      writeFileAtomically((tmp / viewImageName(u)).string(), std::string(png.begin(), png.end()),
+                          AtomicWriteOptions{"", false});
+    }
+    writeFileAtomically((tmp / "views.yaml").string(),
+                        viewsYaml(board, result, views, yaml.filename().string()),
+                        AtomicWriteOptions{"", false});
+  } catch (...) {
+    removeAll(tmp);
+    throw;
+  }
+
+  // 2. Swap the folders: the old one becomes .prev only when its YAML exists too.
+  const bool had_yaml = fs::exists(yaml, ec);
+  const bool had_dir = fs::exists(dir, ec);
+  removeAll(prev_dir);
+  try {
+    if (had_dir) {
+      if (had_yaml) {
+        renameOrThrow(dir, prev_dir);
+      } else {
+        removeAll(dir);
+      }
+    }
+    renameOrThrow(tmp, dir);
+  } catch (...) {
+    removeAll(tmp);
+    if (had_dir && had_yaml && !fs::exists(dir, ec)) renameOrThrow(prev_dir, dir);
+    throw;
+  }
+
+  // 3. The YAML (its previous version kept as .prev by the atomic write).
+  try {
+    writeFileAtomically(yaml_path, yaml_text);
+  } catch (...) {
+    removeAll(dir);
+    if (had_dir && had_yaml) renameOrThrow(prev_dir, dir);
+    throw;
+  }
+  if (!had_yaml) {
+    // A stale <yaml>.prev from before would not match the (absent) previous folder.
+    fs::remove(yaml_path + ".prev", ec);
+  }
+}
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,123 @@
+#include "autocal_ros/node_runtime.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <csignal>
+
+#include "autocal/errors.h"
+#include "autocal_ros/msg_conversion.h"
+
+namespace autocal {
+namespace ros_layer {
+
+namespace {
+std::atomic<bool> g_interrupted{false};
+extern "C" void onSignal(int) { g_interrupted = true; }
+}  // namespace
+
+bool ok() { return ros::ok() && !g_interrupted; }
+bool interrupted() { return g_interrupted; }
+
+StatusPublisher::StatusPublisher(ros::NodeHandle nh, const std::string& topic)
+    : pub_(nh.advertise<CalibrationStatus>(topic, 1, true)), topic_(pub_.getTopic()) {}
+
+void StatusPublisher::publish(uint8_t state, const std::string& phase, double progress,
+                              const std::string& text, const std::string& failure_reason,
+                              const Figures& figures) {
+  if (!pub_) return;
+  CalibrationStatus s;
+  s.header.stamp = ros::Time::now();
+  s.phase = phase;
+  s.state = state;
+  s.progress = static_cast<float>(progress);
+  s.text = text;
+  s.failure_reason = failure_reason;
+  for (const auto& f : figures) {
+    s.figure_names.push_back(f.first);
+    s.figure_values.push_back(f.second);
+  }
+  pub_.publish(s);
+}
+
+void StatusPublisher::running(const std::string& phase, double progress, const std::string& text,
+                              const Figures& figures) {
+  publish(CalibrationStatus::STATE_RUNNING, phase, progress, text, "", figures);
+}
+
+void StatusPublisher::done(const std::string& phase, const std::string& text,
+                           const Figures& figures) {
+  publish(CalibrationStatus::STATE_DONE, phase, 1.0, text, "", figures);
+}
+
+void StatusPublisher::failed(const std::string& phase, const std::string& reason,
+                             const Figures& figures) {
+  publish(CalibrationStatus::STATE_FAILED, phase, -1.0, "failed: " + reason, reason, figures);
+}
+
+WheelsCommander::WheelsCommander(ros::NodeHandle nh, const std::string& topic)
+    : pub_(nh.advertise<dtmsg::WheelsCmdStamped>(topic, 10)) {}
+
+void WheelsCommander::command(double left, double right) {
+  if (!std::isfinite(left) || !std::isfinite(right)) {
+    ROS_WARN_THROTTLE(1.0, "dropped a non-finite wheel duty (%f, %f)", left, right);
+    return;
+  }
+  pub_.publish(
+      toWheelsCmd({std::clamp(left, -1.0, 1.0), std::clamp(right, -1.0, 1.0)}, ros::Time::now()));
+}
+
+void WheelsCommander::stop(double repeat_s, double wait_for_subscriber_s) {
+  if (!pub_) return;
+  // Wall time on purpose: the stop must happen even when the sim clock has stopped.
+  const ros::WallTime wait_end = ros::WallTime::now() + ros::WallDuration(wait_for_subscriber_s);
+  while (pub_.getNumSubscribers() == 0 && ros::WallTime::now() < wait_end && ros::ok()) {
+    pub_.publish(toWheelsCmd({0, 0}, ros::Time::now()));
+    ros::WallDuration(0.05).sleep();
+  }
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(repeat_s);
+  do {
+    pub_.publish(toWheelsCmd({0, 0}, ros::Time::now()));
+    ros::WallDuration(0.05).sleep();
+  } while (ros::WallTime::now() < end && ros::ok());
+}
+
+int runNode(int argc, char** argv, const NodeRunOptions& options,
+            const std::function<void(ros::NodeHandle, ros::NodeHandle)>& body) {
+  ros::init(argc, argv, options.name, ros::init_options::NoSigintHandler);
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  // Held here, not only inside the node: when the last NodeHandle goes, ROS shuts down and with
+  // it the logging and the publishers the failure path needs.
+  ros::NodeHandle nh, pnh("~");
+  StatusPublisher status(nh, options.status_topic);
+  WheelsCommander wheels;
+  if (options.commands_wheels) wheels = WheelsCommander(nh, options.wheels_topic);
+
+  auto fail = [&](ExitCode code, const std::string& reason) {
+    if (wheels.valid()) wheels.stop();
+    status.failed(options.phase, reason);
+    ROS_FATAL_STREAM(options.name << ": " << exitCodeMeaning(code) << ": " << reason);
+    // Give the latched FAILED a moment to reach subscribers that are connecting now.
+    ros::WallDuration(0.2).sleep();
+    ros::shutdown();
+    return toInt(code);
+  };
+  try {
+    body(nh, pnh);
+  } catch (const std::exception& e) {
+    return fail(exitCodeFor(e), e.what());
+  } catch (...) {
+    return fail(ExitCode::kInternal, "unknown exception");
+  }
+  if (interrupted()) {
+    if (options.interrupt_is_failure)
+      return fail(ExitCode::kInterrupted, "interrupted by a signal");
+    if (wheels.valid()) wheels.stop();
+  }
+  ros::shutdown();
+  return toInt(ExitCode::kOk);
+}
+
+}  // namespace ros_layer
+}  // namespace autocal

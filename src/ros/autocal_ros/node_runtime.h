@@ -1,0 +1,78 @@
+// What every autocal node shares at run time: the latched status of DESIGN.md "Status protocol",
+// the wheels' stop, and the one failure path (stop the wheels until the stop is seen, publish
+// FAILED with the reason, ROS_FATAL, exit with the code of the one table, README "Exit codes").
+// SIGINT and SIGTERM stop the wheels too.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "autocal/exit_codes.h"
+#include "autocal_ros/msgs.h"
+
+namespace autocal {
+namespace ros_layer {
+
+/// Publishes autocal/CalibrationStatus, latched, on one topic.
+class StatusPublisher {
+ public:
+  StatusPublisher() = default;
+  StatusPublisher(ros::NodeHandle nh, const std::string& topic);
+
+  using Figures = std::vector<std::pair<std::string, double>>;
+  /// `progress` 0..1, negative when unknown.
+  void running(const std::string& phase, double progress, const std::string& text,
+               const Figures& figures = {});
+  void done(const std::string& phase, const std::string& text, const Figures& figures = {});
+  void failed(const std::string& phase, const std::string& reason, const Figures& figures = {});
+  const std::string& topic() const { return topic_; }
+
+ private:
+  void publish(uint8_t state, const std::string& phase, double progress, const std::string& text,
+               const std::string& failure_reason, const Figures& figures);
+  ros::Publisher pub_;
+  std::string topic_;
+};
+
+/// Publishes wheels_cmd; stop() sends zero duties until a subscriber has seen them.
+class WheelsCommander {
+ public:
+  WheelsCommander() = default;
+  WheelsCommander(ros::NodeHandle nh, const std::string& topic);
+  /// Drops (with a throttled warning) non-finite duties and clamps to ±1.
+  void command(double left_duty, double right_duty);
+  /// Zero duty, repeated: every 50 ms for `repeat_s` [wall s] once a subscriber is connected
+  /// (waiting up to `wait_for_subscriber_s` for one), so that a dropped message cannot leave the
+  /// wheels turning.
+  void stop(double repeat_s = 0.3, double wait_for_subscriber_s = 1.0);
+  bool valid() const { return static_cast<bool>(pub_); }
+
+ private:
+  ros::Publisher pub_;
+};
+
+/// True until ROS shuts down or SIGINT/SIGTERM arrived (runNode installs the handlers).
+bool ok();
+/// True after SIGINT or SIGTERM.
+bool interrupted();
+
+struct NodeRunOptions {
+  std::string name;  ///< ros::init name and log prefix, e.g. "sim_node"
+  std::string status_topic = "calibration/status";
+  std::string phase;            ///< the phase a FAILED status names, e.g. "camera"
+  bool commands_wheels = true;  ///< stop the wheels on failure and interrupt
+  std::string wheels_topic = "wheels_driver_node/wheels_cmd";
+  bool interrupt_is_failure = true;  ///< exit 130 with FAILED "interrupted" (else exit 0)
+};
+
+/// The main of every node: ros::init, then `body(nh, pnh)` (which constructs the node and runs
+/// it), catching every exception once and taking the failure path. Returns the exit code.
+int runNode(int argc, char** argv, const NodeRunOptions& options,
+            const std::function<void(ros::NodeHandle, ros::NodeHandle)>& body);
+
+}  // namespace ros_layer
+}  // namespace autocal

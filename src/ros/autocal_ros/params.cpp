@@ -1,0 +1,75 @@
+#include "autocal_ros/params.h"
+
+#include <ros/console.h>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace ros_layer {
+
+namespace {
+std::string show(double v) { return formatNumber(v); }
+std::string show(int v) { return std::to_string(v); }
+std::string show(bool v) { return v ? "true" : "false"; }
+std::string show(const std::string& v) { return "'" + v + "'"; }
+
+template <typename T>
+const char* typeName();
+template <>
+const char* typeName<double>() {
+  return "a number";
+}
+template <>
+const char* typeName<int>() {
+  return "an integer";
+}
+template <>
+const char* typeName<bool>() {
+  return "true or false";
+}
+template <>
+const char* typeName<std::string>() {
+  return "a string";
+}
+}  // namespace
+
+ParamReader::ParamReader(const ros::NodeHandle& pnh, std::string node_name)
+    : pnh_(pnh), node_name_(std::move(node_name)) {}
+
+template <typename T>
+void ParamReader::read(const std::string& name, T& value, bool required) const {
+  const std::string key = "~" + name;
+  if (!pnh_.hasParam(name)) {
+    if (required) {
+      throw ConfigError(key + ": required parameter is missing (" + pnh_.resolveName(name) + ")");
+    }
+    ROS_INFO_STREAM(node_name_ << ": " << key << " = " << show(value) << " (default)");
+    return;
+  }
+  T read_value{};
+  if (!pnh_.getParam(name, read_value)) {
+    throw ConfigError(key + ": expected " + typeName<T>() + " (" + pnh_.resolveName(name) + ")");
+  }
+  if constexpr (std::is_same_v<T, double>) {
+    if (!std::isfinite(read_value)) throw ConfigError(key + ": must be a finite number");
+  }
+  value = read_value;
+  ROS_INFO_STREAM(node_name_ << ": " << key << " = " << show(value));
+}
+
+void ParamReader::get(const std::string& name, double& value) const { read(name, value, false); }
+void ParamReader::get(const std::string& name, int& value) const { read(name, value, false); }
+void ParamReader::get(const std::string& name, bool& value) const { read(name, value, false); }
+void ParamReader::get(const std::string& name, std::string& value) const {
+  read(name, value, false);
+}
+void ParamReader::require(const std::string& name, double& value) const { read(name, value, true); }
+void ParamReader::require(const std::string& name, int& value) const { read(name, value, true); }
+void ParamReader::require(const std::string& name, bool& value) const { read(name, value, true); }
+void ParamReader::require(const std::string& name, std::string& value) const {
+  read(name, value, true);
+}
+
+}  // namespace ros_layer
+}  // namespace autocal

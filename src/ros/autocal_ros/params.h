@@ -1,0 +1,39 @@
+// One way for every node to read its private parameters into the core's options struct: each
+// value is echoed once at INFO (with "(default)" when it was not set), a value of the wrong type
+// is a ConfigError naming "~key", and a missing required one fails loudly.
+#pragma once
+
+#include <ros/node_handle.h>
+
+#include <string>
+
+namespace autocal {
+namespace ros_layer {
+
+class ParamReader {
+ public:
+  /// `pnh` is the node's private handle; `node_name` prefixes the echoed lines.
+  ParamReader(const ros::NodeHandle& pnh, std::string node_name);
+
+  /// Reads ~name into `value` when it is set; otherwise keeps `value` (the documented default).
+  void get(const std::string& name, double& value) const;
+  void get(const std::string& name, int& value) const;
+  void get(const std::string& name, bool& value) const;
+  void get(const std::string& name, std::string& value) const;
+
+  /// Reads ~name; throws ConfigError "~name: required parameter is missing" when it is not set.
+  void require(const std::string& name, double& value) const;
+  void require(const std::string& name, int& value) const;
+  void require(const std::string& name, bool& value) const;
+  void require(const std::string& name, std::string& value) const;
+
+ private:
+  template <typename T>
+  void read(const std::string& name, T& value, bool required) const;
+
+  ros::NodeHandle pnh_;
+  std::string node_name_;
+};
+
+}  // namespace ros_layer
+}  // namespace autocal

@@ -1,0 +1,121 @@
+// The ROS layer with a master (test/ros/ros_layer.test): ParamReader fills options from private
+// parameters, keeps defaults, refuses wrong types and missing required ones naming "~key"; the
+// status is latched and says FAILED with the reason; WheelsCommander::stop() sends zero duties
+// that a subscriber sees, and drops non-finite commands.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "autocal/errors.h"
+#include "autocal_ros/msgs.h"
+#include "autocal_ros/node_runtime.h"
+#include "autocal_ros/params.h"
+
+using namespace autocal;
+using namespace autocal::ros_layer;
+
+namespace {
+
+/// Spins until `done()` or `wall_timeout_s` of wall time.
+template <typename F>
+bool spinUntil(F done, double wall_timeout_s) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
+  while (ros::ok() && ros::WallTime::now() < deadline) {
+    ros::spinOnce();
+    if (done()) return true;
+    ros::WallDuration(0.01).sleep();
+  }
+  return done();
+}
+
+}  // namespace
+
+TEST(ParamReader, FillsOptionsKeepsDefaultsAndNamesBadKeys) {
+  const ParamReader p(ros::NodeHandle("~"), "test");
+  double rate_hz = 1.0, missing_double = 4.5, whole = 0.0;
+  int count = 0;
+  bool enabled = true;
+  std::string file = "default";
+  p.get("rate_hz", rate_hz);
+  p.get("count", count);
+  p.get("enabled", enabled);
+  p.get("file", file);
+  p.get("whole_number_for_double", whole);
+  p.get("not_set", missing_double);
+  EXPECT_DOUBLE_EQ(rate_hz, 12.5);
+  EXPECT_EQ(count, 7);
+  EXPECT_FALSE(enabled);
+  EXPECT_EQ(file, "/tmp/x.yaml");
+  EXPECT_DOUBLE_EQ(whole, 3.0);
+  EXPECT_DOUBLE_EQ(missing_double, 4.5) << "an unset parameter keeps its default";
+
+  double wrong = 1.0;
+  try {
+    p.get("wrong_type", wrong);
+    FAIL() << "a string read as a number was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("~wrong_type"), std::string::npos) << e.what();
+  }
+  EXPECT_DOUBLE_EQ(wrong, 1.0);
+  std::string required;
+  try {
+    p.require("calibration_root", required);
+    FAIL() << "a missing required parameter was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("~calibration_root: required parameter is missing"),
+              std::string::npos)
+        << e.what();
+  }
+  int required_count = 0;
+  p.require("count", required_count);
+  EXPECT_EQ(required_count, 7);
+}
+
+TEST(NodeRuntime, StatusIsLatchedAndFailedCarriesTheReason) {
+  ros::NodeHandle nh("status_test");
+  StatusPublisher status(nh, "calibration/status");
+  status.running("camera/collect", 0.25, "collecting", {{"views", 3}});
+  status.failed("camera", "no board seen in a full turn");
+  // Subscribed after both were published: latched, the last one arrives.
+  std::vector<CalibrationStatus> got;
+  ros::Subscriber sub = nh.subscribe<CalibrationStatus>(
+      "calibration/status", 10, [&](const CalibrationStatus::ConstPtr& m) { got.push_back(*m); });
+  ASSERT_TRUE(spinUntil([&] { return !got.empty(); }, 10.0));
+  EXPECT_EQ(got.back().state, CalibrationStatus::STATE_FAILED);
+  EXPECT_EQ(got.back().phase, "camera");
+  EXPECT_EQ(got.back().failure_reason, "no board seen in a full turn");
+}
+
+TEST(NodeRuntime, StopSendsZeroDutiesThatASubscriberSees) {
+  ros::NodeHandle nh("wheels_test");
+  std::vector<std::pair<float, float>> got;
+  ros::Subscriber sub = nh.subscribe<dtmsg::WheelsCmdStamped>(
+      "wheels_driver_node/wheels_cmd", 100, [&](const dtmsg::WheelsCmdStamped::ConstPtr& m) {
+        got.emplace_back(m->vel_left, m->vel_right);
+      });
+  WheelsCommander wheels(nh, "wheels_driver_node/wheels_cmd");
+  ASSERT_TRUE(spinUntil([&] { return sub.getNumPublishers() > 0; }, 10.0));
+  wheels.command(std::nan(""), 0.5);  // dropped
+  wheels.command(2.0, -0.3);          // clamped
+  wheels.stop(0.3, 1.0);
+  ASSERT_TRUE(spinUntil([&] { return got.size() >= 3; }, 5.0));
+  EXPECT_FLOAT_EQ(got.front().first, 1.0f);
+  EXPECT_FLOAT_EQ(got.front().second, -0.3f);
+  int zeros = 0;
+  for (const auto& d : got) {
+    EXPECT_TRUE(std::isfinite(d.first) && std::isfinite(d.second));
+    zeros += (d.first == 0.0f && d.second == 0.0f) ? 1 : 0;
+  }
+  EXPECT_GE(zeros, 2) << "the stop is repeated";
+  EXPECT_EQ(got.back(), std::make_pair(0.0f, 0.0f));
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "ros_layer_test");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}

@@ -3,6 +3,7 @@
 // status is latched and says FAILED with the reason; WheelsCommander::stop() sends zero duties
 // that a subscriber sees, and drops non-finite commands.
 #include <gtest/gtest.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 
 #include <cmath>
@@ -24,9 +25,8 @@ template <typename F>
 bool spinUntil(F done, double wall_timeout_s) {
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
   while (ros::ok() && ros::WallTime::now() < deadline) {
-    ros::spinOnce();
+    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(0.01));
     if (done()) return true;
-    ros::WallDuration(0.01).sleep();
   }
   return done();
 }

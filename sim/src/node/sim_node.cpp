@@ -52,6 +52,7 @@ SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHand
   p.get("max_blur_samples", o.max_blur_samples);
   p.get("world_frame", o.world_frame);
   p.get("duration_s", o.duration_s);
+  p.get("wait_for_controller", o.wait_for_controller);
   std::string ns = nh.getNamespace();
   ns.erase(0, ns.find_first_not_of('/'));
   o.vehicle = ns.empty() ? "robot" : ns;
@@ -85,14 +86,18 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   range_frame_ = v + "/front_center_tof_link";
   ground_truth_frame_ = v + "/ground_truth/base_link";
 
-  clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  left_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", 10);
-  right_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", 10);
-  range_pub_ = nh_.advertise<sensor_msgs::Range>("front_center_tof_driver_node/range", 10);
+  // Deep queues for the small messages: at real_time_factor 0 the simulator publishes them
+  // hundreds of times faster than real time, and a subscriber that lags a few milliseconds must
+  // not lose them.
+  const int small_queue = 1000;
+  clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", small_queue);
+  left_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", small_queue);
+  right_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", small_queue);
+  range_pub_ = nh_.advertise<sensor_msgs::Range>("front_center_tof_driver_node/range", small_queue);
   compressed_pub_ = nh_.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 5);
   image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 5);
-  camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", 5);
-  ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", 10);
+  camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", small_queue);
+  ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", small_queue);
   status_ = ros_layer::StatusPublisher(nh_, "sim/status");
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   wheels_cmd_sub_ = nh_.subscribe("wheels_driver_node/wheels_cmd", 10, &SimNode::onWheelsCmd, this);
@@ -228,11 +233,22 @@ void SimNode::run() {
     if (s.next_s < t) s.next_s = t + s.period_s;
     return true;
   };
-  const ros::WallTime wall_start = ros::WallTime::now();
   double rtf_sim_mark = 0, achieved_rtf = 0;
-  ros::WallTime rtf_mark = wall_start;
   publishClock();
   publishStatus(0.0);
+  if (options_.wait_for_controller) {
+    // At real_time_factor 0 a node started beside the simulator would find it far ahead (and
+    // miss the start): hold time at 0 until a controller publishes on wheels_cmd.
+    ROS_INFO("sim: holding simulated time at 0 until a node publishes on %s",
+             wheels_cmd_sub_.getTopic().c_str());
+    while (ros_layer::ok() && wheels_cmd_sub_.getNumPublishers() == 0) {
+      publishClock();
+      ros::spinOnce();
+      ros::WallDuration(0.02).sleep();
+    }
+  }
+  const ros::WallTime run_start = ros::WallTime::now();
+  ros::WallTime rtf_mark = run_start;
   while (ros_layer::ok()) {
     sim_->step();
     const double t = sim_->time_s();
@@ -257,7 +273,7 @@ void SimNode::run() {
     ros::spinOnce();
     if (options_.duration_s > 0 && t >= options_.duration_s) break;
     if (options_.real_time_factor > 0) {
-      const ros::WallTime target = wall_start + ros::WallDuration(t / options_.real_time_factor);
+      const ros::WallTime target = run_start + ros::WallDuration(t / options_.real_time_factor);
       const ros::WallTime now = ros::WallTime::now();
       if (target > now) (target - now).sleep();
     }

@@ -38,6 +38,9 @@ struct SimNodeOptions {
   std::string vehicle;  ///< frame prefix, from the namespace
   std::string world_frame = "world";
   double duration_s = 0.0;  ///< stop after this much simulated time (0: run until shutdown)
+  /// Hold simulated time at 0 until some node publishes on wheels_cmd (a controller or a test is
+  /// connected): what a real_time_factor 0 run needs so that nobody misses the start.
+  bool wait_for_controller = false;
   /// Throws ConfigError naming the bad "~key".
   void validate() const;
 };

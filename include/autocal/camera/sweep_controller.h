@@ -27,7 +27,9 @@ struct SweepOptions {
   /// first pass runs anyway (start_board unknown), a different count is a failure.
   int board_count = 0;
   /// Board in view (nearest the image centre) at the start, numbered counter-clockwise from 0;
-  /// -1 = unknown: found in the first pass. Used only together with board_count.
+  /// -1 = unknown: found in the first pass. Without board_count the first pass runs anyway and a
+  /// different start board is a failure. With both given but no board in view at the start, the
+  /// first pass runs too (and checks board_count only).
   int start_board = -1;
   /// First turn direction (paper §3.2: "for definiteness, it is assumed to be clockwise").
   TurnDirection initial_direction = TurnDirection::kCw;

@@ -4,7 +4,10 @@ target_sources(autocal_core PRIVATE
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp
   src/core/camera/camera_config.cpp
-  src/core/camera/calibration_files.cpp)
+  src/core/camera/calibration_files.cpp
+  src/core/camera/wheel_turn.cpp
+  src/core/camera/sweep_controller.cpp
+  src/core/camera/min_duty_probe.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
@@ -15,6 +18,13 @@ autocal_ros_target(calibrate_camera)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_camera_real SOURCES test/camera/test_camera_real.cpp LIBS autocal_core)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # One-wheel turns and the minimum moving duty probe against a scripted motor (no master).
+  autocal_core_gtest(test_min_duty_probe SOURCES test/camera/test_min_duty_probe.cpp LIBS autocal_core)
+  # The sweep controller against a scripted world of boards around the robot (no master).
+  autocal_core_gtest(test_sweep_controller SOURCES test/camera/test_sweep_controller.cpp LIBS autocal_core)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

@@ -69,6 +69,7 @@ void command(Motion motion, Simulation& sim) {
 struct RunStats {
   double rtf = 0;  ///< simulated s per CPU s
   int frames = 0, blurred = 0;
+  double blurred_s = 0, still_s = 0, jpeg_s = 0;  ///< CPU time rendering blurred / still frames, encoding
   uint64_t still_rendered = 0, still_reused = 0;
 };
 
@@ -96,8 +97,12 @@ RunStats run(const RobotConfig& robot, const WorldConfig& world, const RenderOpt
     }
     if (renderer && sim.time_s() >= next_frame_s) {
       const std::vector<Pose2> poses = sim.exposurePoses(sim.time_s(), 8);
+      const Clock::time_point r0 = Clock::now();
       const cv::Mat image = renderer->render(poses, rng);
+      const Clock::time_point j0 = Clock::now();
       cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, robot.camera.jpeg_quality});
+      stats.jpeg_s += secondsSince(j0);
+      (poses.size() > 1 ? stats.blurred_s : stats.still_s) += j0 - r0;
       ++stats.frames;
       if (poses.size() > 1) ++stats.blurred;
       next_frame_s += frame_period_s;
@@ -192,6 +197,7 @@ int main(int argc, char** argv) {
     const char* motion_names[] = {"stop-and-shoot sweep (0.1 s one-wheel pulses at duty 0.3, 0.6 s still)",
                                   "straight drives (duty -0.3 for 2 s, still 1 s, +0.3 for 2 s, still 1 s)",
                                   "continuous driving (pivots and straight runs at duty 0.4-0.5, 2 s each; 2 of 12 s still)"};
+    const char* short_names[] = {"stop-and-shoot sweep", "straight drives", "continuous driving"};
     const char* targets[] = {">= 10", ">= 10", ">= 3"};
     RunStats before[3], after[3];
     for (int m = 0; m < 3; ++m) {
@@ -241,6 +247,16 @@ int main(int argc, char** argv) {
                   after[m].rtf / before[m].rtf, targets[m]);
     }
     std::printf("| continuous driving, camera off | | | | %.1f | | >= 50 |\n", without.rtf);
+    std::printf("\nWhere a simulated second goes now (CPU ms per simulated s): rendering blurred frames, still frames\n"
+                "(rendered or reused), JPEG encoding, the rest (physics, range sensor).\n\n");
+    std::printf("| motion | blurred | still | JPEG | rest | total |\n|---|---|---|---|---|---|\n");
+    for (int m = 0; m < 3; ++m) {
+      const RunStats& a = after[m];
+      const double total_ms = 1000 * sim_s / a.rtf / sim_s;
+      const double blurred = 1000 * a.blurred_s / sim_s, still = 1000 * a.still_s / sim_s, jpeg = 1000 * a.jpeg_s / sim_s;
+      std::printf("| %s | %.0f | %.0f | %.0f | %.0f | %.0f |\n", short_names[m], blurred, still, jpeg,
+                  total_ms - blurred - still - jpeg, total_ms);
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sim_bench: %s\n", e.what());

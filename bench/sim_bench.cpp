@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <ctime>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -37,40 +38,82 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-/// The drive pattern of a calibration: pivots and straight runs, changing every 2 s.
-void command(Simulation& sim) {
+/// What the robot does while the camera runs.
+enum class Motion {
+  kSweep,     ///< stop and shoot: 0.1 s one-wheel pulses, then 0.6 s standing still
+  kStraight,  ///< the wheel stage's straight drives: 2 s back, 1 s still, 2 s forward, 1 s still
+  kDrive,     ///< continuous driving: pivots and straight runs changing every 2 s, few stops
+};
+
+void command(Motion motion, Simulation& sim) {
+  const double t = sim.time_s();
+  if (motion == Motion::kSweep) {
+    const int cycle = static_cast<int>(t / 0.7);
+    const bool pulse = t - 0.7 * cycle < 0.1;
+    const double duty = pulse ? 0.3 : 0.0;
+    if ((cycle / 8) % 2 == 0) sim.setDuty(duty, 0.0);  // 8 steps on one wheel, 8 on the other
+    else sim.setDuty(0.0, duty);
+    return;
+  }
+  if (motion == Motion::kStraight) {
+    static const double pattern[] = {-0.3, -0.3, 0.0, 0.3, 0.3, 0.0};
+    const double d = pattern[static_cast<int>(t) % 6];
+    sim.setDuty(d, d);
+    return;
+  }
   static const double pattern[][2] = {{0.0, 0.4}, {0.0, 0.0}, {0.4, 0.0}, {0.5, 0.5}, {-0.5, -0.5}, {0.0, 0.0}};
-  const int phase = static_cast<int>(sim.time_s() / 2.0) % 6;
+  const int phase = static_cast<int>(t / 2.0) % 6;
   sim.setDuty(pattern[phase][0], pattern[phase][1]);
 }
 
-/// Simulated seconds per wall second over sim_s of simulated time.
-double realTimeFactor(const RobotConfig& robot, const WorldConfig& world, const Renderer* renderer, double sim_s,
-                      int* frames) {
+struct RunStats {
+  double rtf = 0;  ///< simulated s per CPU s
+  int frames = 0, blurred = 0;
+  double blurred_s = 0, still_s = 0, jpeg_s = 0;  ///< CPU time rendering blurred / still frames, encoding
+  uint64_t still_rendered = 0, still_reused = 0;
+};
+
+/// Steps sim_s of simulated time with the range sensor at its rate and, when `render` is given,
+/// the camera at its rate: each frame blurred over the exposure as the node does (its default
+/// ~max_blur_samples 8), then JPEG-encoded (a calibration subscribes to the compressed topic).
+RunStats run(const RobotConfig& robot, const WorldConfig& world, const RenderOptions* render, Motion motion,
+             double sim_s) {
   Simulation sim(robot, world, SimulationOptions());
+  std::unique_ptr<Renderer> renderer;
+  if (render) renderer = std::make_unique<Renderer>(robot.camera, world, *render);
   std::mt19937_64 rng(7), range_rng(8);
   const double frame_period_s = 1.0 / robot.camera.rate_hz;
   const double range_period_s = 1.0 / robot.range_sensor.rate_hz;
   double next_frame_s = 0, next_range_s = 0;
   std::vector<uchar> jpeg;
-  *frames = 0;
+  RunStats stats;
   const Clock::time_point t0 = Clock::now();
   while (sim.time_s() < sim_s) {
-    command(sim);
+    command(motion, sim);
     sim.step();
     if (sim.time_s() >= next_range_s) {
       sim.measureRange(range_rng);
       next_range_s += range_period_s;
     }
     if (renderer && sim.time_s() >= next_frame_s) {
-      // As the node does (its default ~max_blur_samples 8): blur over the exposure, then JPEG.
-      const cv::Mat image = renderer->render(sim.exposurePoses(sim.time_s(), 8), rng);
+      const std::vector<Pose2> poses = sim.exposurePoses(sim.time_s(), 8);
+      const Clock::time_point r0 = Clock::now();
+      const cv::Mat image = renderer->render(poses, rng);
+      const Clock::time_point j0 = Clock::now();
       cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, robot.camera.jpeg_quality});
-      ++*frames;
+      stats.jpeg_s += secondsSince(j0);
+      (poses.size() > 1 ? stats.blurred_s : stats.still_s) += j0 - r0;
+      ++stats.frames;
+      if (poses.size() > 1) ++stats.blurred;
       next_frame_s += frame_period_s;
     }
   }
-  return sim_s / secondsSince(t0);
+  stats.rtf = sim_s / secondsSince(t0);
+  if (renderer) {
+    stats.still_rendered = renderer->stillFramesRendered();
+    stats.still_reused = renderer->stillFramesReused();
+  }
+  return stats;
 }
 
 }  // namespace
@@ -94,6 +137,7 @@ int main(int argc, char** argv) {
       RenderOptions options;
       options.supersampling = supersampling[k];
       options.noise_sigma = robot.camera.noise_sigma;
+      options.still_reuse_px = -1;  // every frame rendered anew: the cost of a fresh frame
       Renderer renderer(robot.camera, world, options);
       std::mt19937_64 rng(3);
       // Each frame is rendered 3 times and its best time kept: the machine is shared, and the
@@ -110,10 +154,30 @@ int main(int argc, char** argv) {
         if (i >= 2) ms_by_ss[k].push_back(1000 * best_s);  // the first two warm up
       }
     }
-    RenderOptions options;
+    RenderOptions options;  // as the node renders (still frames reused)
     options.supersampling = robot.camera.supersampling;
     options.noise_sigma = robot.camera.noise_sigma;
-    Renderer renderer(robot.camera, world, options);
+    RenderOptions today = options;  // the code path before issue 13: every frame rendered anew
+    today.still_reuse_px = -1;
+    // A still frame of a robot standing still: the same pose again, fresh noise; and its JPEG.
+    std::vector<double> ms_reused, ms_jpeg;
+    {
+      Renderer renderer(robot.camera, world, options);
+      std::mt19937_64 rng(4);
+      std::vector<uchar> jpeg;
+      for (int i = 0; i < 40; ++i) {
+        const Pose2 pose{0.0, 0.0, 0.3};
+        const Clock::time_point t0 = Clock::now();
+        const cv::Mat image = renderer.render({pose}, rng);
+        const double render_s = secondsSince(t0);
+        const Clock::time_point t1 = Clock::now();
+        cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, robot.camera.jpeg_quality});
+        if (i >= 2) {  // the first renders the pose, the second warms up
+          ms_reused.push_back(1000 * render_s);
+          ms_jpeg.push_back(1000 * secondsSince(t1));
+        }
+      }
+    }
     // A motion-blurred frame: 8 poses over the exposure of a pivot at ~2 rad/s.
     std::vector<double> ms_blur;
     {
@@ -129,34 +193,70 @@ int main(int argc, char** argv) {
         if (i >= 2) ms_blur.push_back(1000 * secondsSince(t0));
       }
     }
-    int frames_with = 0, frames_without = 0;
-    const double rtf_with = realTimeFactor(robot, world, &renderer, sim_s, &frames_with);
-    const double rtf_without = realTimeFactor(robot, world, nullptr, sim_s, &frames_without);
+    const Motion motions[] = {Motion::kSweep, Motion::kStraight, Motion::kDrive};
+    const char* motion_names[] = {"stop-and-shoot sweep (0.1 s one-wheel pulses at duty 0.3, 0.6 s still)",
+                                  "straight drives (duty -0.3 for 2 s, still 1 s, +0.3 for 2 s, still 1 s)",
+                                  "continuous driving (pivots and straight runs at duty 0.4-0.5, 2 s each; 2 of 12 s still)"};
+    const char* short_names[] = {"stop-and-shoot sweep", "straight drives", "continuous driving"};
+    const char* targets[] = {">= 10", ">= 10", ">= 3"};
+    RunStats before[3], after[3];
+    for (int m = 0; m < 3; ++m) {
+      before[m] = run(robot, world, &today, motions[m], sim_s);
+      after[m] = run(robot, world, &options, motions[m], sim_s);
+    }
+    const RunStats without = run(robot, world, nullptr, Motion::kDrive, sim_s);
 
     auto mean = [](const std::vector<double>& v) {
       double s = 0;
       for (double x : v) s += x;
       return s / v.size();
     };
-    std::printf("## Simulator (issue 2)\n\n");
+    std::printf("## Simulator (issues 2 and 13)\n\n");
     std::printf("`build/bench/sim_bench` on one core (`taskset -c 0`, OpenCV threads off), default robot and world;\n"
-                "times are the thread's CPU time (robust to other load), real-time factors are simulated s per CPU s.\n");
-    std::printf("Render: %dx%d, %d still frames at headings all around the start pose, each the best of 3.\n", robot.camera.truth.width,
-                robot.camera.truth.height, still_frames - 2);
-    std::printf("Real-time factor: %.0f s of simulated driving (pivots, straight runs; physics %.0f Hz, range %.0f Hz),\n"
-                "with the camera rendered and JPEG-encoded at %.0f Hz (motion blur when moving) and without it.\n\n",
-                sim_s, SimulationOptions().physics_rate_hz, robot.range_sensor.rate_hz, robot.camera.rate_hz);
+                "times are the thread's CPU time (robust to other load), real-time factors are simulated s per CPU s.\n"
+                "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px: -1`), run\n"
+                "side by side in the same process; \"now\" is the default (a still frame within %.2g px of the last\n"
+                "rendered still frame reuses its noiseless image and gets fresh noise).\n\n",
+                options.still_reuse_px);
+    std::printf("Render: %dx%d, %d still frames at headings all around the start pose, each rendered anew and the best of 3.\n\n",
+                robot.camera.truth.width, robot.camera.truth.height, still_frames - 2);
     std::printf("| figure | measured | target |\n|---|---|---|\n");
-    std::printf("| render, supersampling %d (as in tests), median ms/frame | %.2f | <= 10 |\n", supersampling[0],
+    std::printf("| still frame rendered anew, supersampling %d (as in tests), median ms | %.2f | <= 3 |\n", supersampling[0],
                 median(ms_by_ss[0]));
-    std::printf("| render, supersampling %d, mean / max ms/frame | %.2f / %.2f | |\n", supersampling[0],
+    std::printf("| still frame rendered anew, supersampling %d, mean / max ms | %.2f / %.2f | |\n", supersampling[0],
                 mean(ms_by_ss[0]), *std::max_element(ms_by_ss[0].begin(), ms_by_ss[0].end()));
-    std::printf("| render, supersampling 1 (no anti-aliasing), median ms/frame | %.2f | |\n", median(ms_by_ss[1]));
-    std::printf("| motion-blurred frame (8 poses over the exposure, each rendered), median ms | %.2f | |\n",
+    std::printf("| still frame rendered anew, supersampling 1 (no anti-aliasing), median ms | %.2f | |\n", median(ms_by_ss[1]));
+    std::printf("| still frame of a robot standing still (noiseless image reused, fresh noise), median ms | %.2f | <= 3 |\n",
+                median(ms_reused));
+    std::printf("| JPEG encoding of a frame (quality %d), median ms | %.2f | |\n", robot.camera.jpeg_quality,
+                median(ms_jpeg));
+    std::printf("| motion-blurred frame (8 poses over the exposure, each rendered), median ms | %.2f | |\n\n",
                 median(ms_blur));
-    std::printf("| real-time factor with camera at %.0f Hz (%d frames) | %.1f | >= 3 |\n", robot.camera.rate_hz,
-                frames_with, rtf_with);
-    std::printf("| real-time factor without camera | %.1f | >= 50 |\n", rtf_without);
+    std::printf("Real-time factor: %.0f s of simulated motion (physics %.0f Hz, range %.0f Hz), camera rendered at %.0f Hz\n"
+                "and JPEG-encoded (as the node does when the compressed topic has a subscriber). Frames: blurred /\n"
+                "still rendered / still reused.\n\n",
+                sim_s, SimulationOptions().physics_rate_hz, robot.range_sensor.rate_hz, robot.camera.rate_hz);
+    std::printf("| motion | frames today | frames now | real-time factor today | now | now / today | target |\n"
+                "|---|---|---|---|---|---|---|\n");
+    for (int m = 0; m < 3; ++m) {
+      std::printf("| %s | %d / %llu / %llu | %d / %llu / %llu | %.1f | **%.1f** | %.2fx | %s |\n", motion_names[m],
+                  before[m].blurred, static_cast<unsigned long long>(before[m].still_rendered),
+                  static_cast<unsigned long long>(before[m].still_reused), after[m].blurred,
+                  static_cast<unsigned long long>(after[m].still_rendered),
+                  static_cast<unsigned long long>(after[m].still_reused), before[m].rtf, after[m].rtf,
+                  after[m].rtf / before[m].rtf, targets[m]);
+    }
+    std::printf("| continuous driving, camera off | | | | %.1f | | >= 50 |\n", without.rtf);
+    std::printf("\nWhere a simulated second goes now (CPU ms per simulated s): rendering blurred frames, still frames\n"
+                "(rendered or reused), JPEG encoding, the rest (physics, range sensor).\n\n");
+    std::printf("| motion | blurred | still | JPEG | rest | total |\n|---|---|---|---|---|---|\n");
+    for (int m = 0; m < 3; ++m) {
+      const RunStats& a = after[m];
+      const double total_ms = 1000 * sim_s / a.rtf / sim_s;
+      const double blurred = 1000 * a.blurred_s / sim_s, still = 1000 * a.still_s / sim_s, jpeg = 1000 * a.jpeg_s / sim_s;
+      std::printf("| %s | %.0f | %.0f | %.0f | %.0f | %.0f |\n", short_names[m], blurred, still, jpeg,
+                  total_ms - blurred - still - jpeg, total_ms);
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sim_bench: %s\n", e.what());

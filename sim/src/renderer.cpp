@@ -132,8 +132,10 @@ class Scene {
 
   /// Colour and surface id of the first surface hit by the ray o + t d (t > 0); d need not be
   /// unit. bin: the azimuth bin of d in the robot frame (kAllBins: test every vertical quad).
+  /// *distance (when given): the ray parameter t of the hit (+inf for the sky); with a unit d, the
+  /// distance [m] to the surface.
   inline void trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin, Rgb* color,
-                    int* id) const;
+                    int* id, double* distance = nullptr) const;
 
   /// True when no floor mark (tag, lane line) reaches into the rectangle [x0, x1] x [y0, y1]. A
   /// block of pixels on the floor maps to a convex quad of the floor plane: when the quad's
@@ -480,7 +482,7 @@ Rgb Scene::wallColor(const VerticalQuad& q, double s, double z, int* part) const
 }
 
 inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin,
-                         Rgb* color, int* id) const {
+                         Rgb* color, int* id, double* distance) const {
   double best = std::numeric_limits<double>::infinity();
   int hit = -1;  // -1 nothing, -2 floor, -3 - k: top k, >= 0: quad
   double hit_s = 0;
@@ -517,6 +519,7 @@ inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uin
     best = t;
     hit = -3 - static_cast<int>(k);
   }
+  if (distance) *distance = best;
   if (hit == -1) {
     *color = kSky;
     *id = 0;
@@ -635,6 +638,21 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
   for (int rank = 0; rank < n_samples; ++rank) {
     sample_offsets_[order[rank]].y() = static_cast<float>((rank + 0.5) / n_samples);
   }
+  // The finest angular pixel pitch bounds how far a turned ray moves in the image.
+  double finest_rad = std::numeric_limits<double>::infinity();
+  for (int v = 0; v <= height_; ++v) {
+    for (int u = 0; u <= width_; ++u) {
+      const size_t i = static_cast<size_t>(v * (width_ + 1) + u);
+      if (!corner_valid_[i]) continue;
+      if (u < width_ && corner_valid_[i + 1]) {
+        finest_rad = std::min(finest_rad, static_cast<double>((corner_dirs_[i + 1] - corner_dirs_[i]).norm()));
+      }
+      if (v < height_ && corner_valid_[i + width_ + 1]) {
+        finest_rad = std::min(finest_rad, static_cast<double>((corner_dirs_[i + width_ + 1] - corner_dirs_[i]).norm()));
+      }
+    }
+  }
+  px_per_rad_ = std::isfinite(finest_rad) && finest_rad > 0 ? 1.0 / finest_rad : 0.0;
   // A table of standard normal samples, four images long, so that a frame's noise never repeats
   // within the frame; each frame starts at a random offset (drawn from the caller's seeded rng).
   std::mt19937_64 gen(options_.noise_seed);
@@ -657,6 +675,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   traced_.resize(corner_dirs_.size());
   corner_floor_xy_.resize(corner_dirs_.size());
   ++frame_;  // corners traced in this frame carry its number (no per-frame clearing)
+  nearest_m_ = std::numeric_limits<double>::infinity();
 
   auto traceCorner = [&](size_t i) {
     if (traced_[i] == frame_) return;
@@ -667,7 +686,9 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
     }
     const Eigen::Vector3f& d = corner_dirs_[i];
     const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
-    scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i]);
+    double distance;  // corner rays are unit vectors: t is the distance [m]
+    scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i], &distance);
+    nearest_m_ = std::min(nearest_m_, distance);
     if (id[i] == (1 | kMarked)) {  // marked floor: keep where the ray meets it (see smoothCorners)
       const double t = -origin.z() / dw.z();
       corner_floor_xy_[i] = Eigen::Vector2f(static_cast<float>(origin.x() + t * dw.x()),
@@ -815,17 +836,42 @@ cv::Mat Renderer::renderExact(const Pose2& pose) const {
   return acc;
 }
 
+double Renderer::imageMotionBoundPx(const Pose2& a, const Pose2& b, double nearest_m) const {
+  // A turn by dyaw about the vertical turns every ray by at most dyaw; a shift of the camera by
+  // dc turns the ray to a point at distance >= nearest_m by at most dc / nearest_m.
+  const double turn_rad = std::abs(std::remainder(b.yaw_rad - a.yaw_rad, 2 * M_PI));
+  const double shift_m = (cameraInWorld(config_, b).translation() - cameraInWorld(config_, a).translation()).norm();
+  if (shift_m == 0 && turn_rad == 0) return 0;
+  return px_per_rad_ * (turn_rad + (nearest_m > 0 ? shift_m / nearest_m : std::numeric_limits<double>::infinity()));
+}
+
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const {
   if (poses.empty()) throw InputError("renderer: no pose to render");
-  cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  for (const Pose2& p : poses) renderPose(p, poses.size() == 1, acc.ptr<float>());
-  if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
+  // A still frame near the last one reuses its noiseless image (the noise below is fresh).
+  const bool still = poses.size() == 1;
+  const bool reuse = still && options_.still_reuse_px >= 0 && !still_image_.empty() &&
+                     imageMotionBoundPx(still_pose_, poses[0], still_nearest_m_) <= options_.still_reuse_px;
+  // Buffers are kept between frames: a fresh 640x480 float image costs page faults every frame.
+  cv::Mat& acc = still && options_.still_reuse_px >= 0 ? still_image_ : accumulator_;
+  if (reuse) {
+    ++still_reused_;
+  } else {
+    acc.create(height_, width_, CV_32FC3);
+    acc.setTo(cv::Scalar::all(0));
+    for (const Pose2& p : poses) renderPose(p, still, acc.ptr<float>());
+    if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
+    if (still) {
+      ++still_rendered_;
+      still_pose_ = poses[0];
+      still_nearest_m_ = nearest_m_;
+    }
+  }
   const size_t n = static_cast<size_t>(width_) * height_ * 3;
   const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
   const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
-  cv::scaleAdd(noise, options_.noise_sigma, acc, acc);
+  cv::scaleAdd(noise, options_.noise_sigma, acc, noisy_);
   cv::Mat out;
-  acc.convertTo(out, CV_8UC3);  // rounds and saturates to 0..255
+  noisy_.convertTo(out, CV_8UC3);  // rounds and saturates to 0..255
   return out;
 }
 

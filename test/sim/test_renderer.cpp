@@ -287,3 +287,111 @@ TEST(SimRenderer, MotionDuringExposureBlursTheImage) {
 }
 
 }  // namespace
+
+namespace {
+
+sim::RenderOptions withReuse(const sim::CameraConfig& c, double still_reuse_px) {
+  sim::RenderOptions o = optionsOf(c);
+  o.still_reuse_px = still_reuse_px;
+  return o;
+}
+
+}  // namespace
+
+// A still frame that reuses the last still frame's noiseless image is the frame a renderer that
+// renders every frame anew gives with the same noise draw.
+TEST(SimRendererStillReuse, ReusedStillFrameEqualsAFreshRender) {
+  const sim::RobotConfig robot = defaultRobot();
+  const sim::WorldConfig world = defaultWorld();
+  sim::Renderer reusing(robot.camera, world, withReuse(robot.camera, 0.01));
+  sim::Renderer fresh(robot.camera, world, withReuse(robot.camera, -1));
+  std::mt19937_64 a(21), b(21);
+  const sim::Pose2 pose{0.05, -0.02, 0.3};
+  for (int k = 0; k < 3; ++k) {
+    const cv::Mat ia = reusing.render({pose}, a), ib = fresh.render({pose}, b);
+    EXPECT_EQ(cv::norm(ia, ib, cv::NORM_INF), 0.0) << "frame " << k;
+  }
+  EXPECT_EQ(reusing.stillFramesRendered(), 1u);
+  EXPECT_EQ(reusing.stillFramesReused(), 2u);
+  EXPECT_EQ(fresh.stillFramesRendered(), 3u);
+  EXPECT_EQ(fresh.stillFramesReused(), 0u);
+}
+
+// The noise of consecutive frames of a robot standing still is fresh: two frames differ by two
+// independent noise draws (standard deviation sqrt(2) sigma), not by zero.
+TEST(SimRendererStillReuse, ConsecutiveStillFramesHaveFreshNoise) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  std::mt19937_64 rng(5);
+  const sim::Pose2 pose{0, 0, -0.4};
+  const cv::Mat first = renderer.render({pose}, rng), second = renderer.render({pose}, rng);
+  EXPECT_EQ(renderer.stillFramesReused(), 1u);
+  cv::Mat diff;
+  cv::subtract(first, second, diff, cv::noArray(), CV_32F);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(diff.reshape(1), mean, stddev);
+  EXPECT_NEAR(stddev[0] / std::sqrt(2.0), robot.camera.noise_sigma, 0.2 * robot.camera.noise_sigma);
+}
+
+// The reused image belongs to the pose: a pose that moves the image by more than the tolerance
+// (here 0.03 px and 3 px), a blurred frame in between, and a pose within it behave as they must.
+TEST(SimRendererStillReuse, PoseChangeBeyondTheToleranceRendersAnew) {
+  const sim::RobotConfig robot = defaultRobot();
+  const sim::WorldConfig world = defaultWorld();
+  sim::Renderer reusing(robot.camera, world, withReuse(robot.camera, 0.01));
+  sim::Renderer fresh(robot.camera, world, withReuse(robot.camera, -1));
+  std::mt19937_64 a(3), b(3);
+  const double px_per_rad = robot.camera.truth.fx;
+  const sim::Pose2 p0{0, 0, 0.1};
+  const sim::Pose2 p1{0, 0, 0.1 + 0.03 / px_per_rad};  // the image turns by about 0.03 px
+  const sim::Pose2 p2{0, 0, 0.1 + 3.0 / px_per_rad};   // ... by about 3 px
+  std::vector<sim::Pose2> blur;
+  for (int k = 0; k < 4; ++k) blur.push_back({0, 0, 0.1 + 0.004 * k});
+  for (const std::vector<sim::Pose2>& poses : std::vector<std::vector<sim::Pose2>>{{p0}, {p1}, {p2}, blur, {p2}}) {
+    EXPECT_EQ(cv::norm(reusing.render(poses, a), fresh.render(poses, b), cv::NORM_INF), 0.0);
+  }
+  EXPECT_EQ(reusing.stillFramesRendered(), 3u);  // p0, p1, p2; the last p2 reuses despite the blur
+  EXPECT_EQ(reusing.stillFramesReused(), 1u);
+  // Within the tolerance: the image is reused, and it differs from the exact one by far less than
+  // the noise (a few pixels may differ more: a 0.003 px move can tip an edge pixel's choice
+  // between blending and supersampling, each as close to the pixel's true area as the other).
+  const sim::Pose2 p3{p2.x_m + 1e-9, p2.y_m, p2.yaw_rad + 1e-7};
+  EXPECT_LT(reusing.imageMotionBoundPx(p2, p3, 0.05), 0.01);
+  EXPECT_GT(reusing.imageMotionBoundPx(p0, p1, 0.05), 0.01);
+  reusing.render({p3}, a);
+  EXPECT_EQ(reusing.stillFramesReused(), 2u);
+  const cv::Mat exact = reusing.renderExact(p3), cached = reusing.renderExact(p2);
+  const double rms = cv::norm(exact, cached, cv::NORM_L2) / std::sqrt(static_cast<double>(exact.total() * 3));
+  std::cout << "rendered anew vs reused, 0.003 px apart: RMS " << rms << " grey levels, largest "
+            << cv::norm(exact, cached, cv::NORM_INF) << std::endl;
+  EXPECT_LT(rms, 0.05 * robot.camera.noise_sigma);
+}
+
+// The motion bound is an upper bound: projecting world points from two nearby poses moves none
+// of them by more than it says.
+TEST(SimRendererStillReuse, ImageMotionBoundHoldsForProjectedPoints) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  const sim::Pose2 a{0.1, -0.05, 0.7}, b{0.1 + 2e-4, -0.05 - 1e-4, 0.7 + 5e-4};
+  const double nearest_m = 0.08;
+  const double bound = renderer.imageMotionBoundPx(a, b, nearest_m);
+  const sim::CameraModel& camera = renderer.camera();
+  const Eigen::Isometry3d ca = sim::cameraInWorld(robot.camera, a).inverse(),
+                          cb = sim::cameraInWorld(robot.camera, b).inverse();
+  const Eigen::Vector3d centre = sim::cameraInWorld(robot.camera, a).translation();
+  double largest = 0;
+  int seen = 0;
+  for (int i = 0; i < 4000; ++i) {
+    // Points at 0.08 .. 2 m in all directions around the camera.
+    const double az = 0.0017 * i * 7, el = -0.9 + 1.8 * ((i * 37) % 1000) / 1000.0, r = nearest_m + 0.0005 * i;
+    const Eigen::Vector3d p = centre + r * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    Eigen::Vector2d pa, pb;
+    if (!camera.project(ca * p, &pa) || !camera.project(cb * p, &pb)) continue;
+    if (pa.x() < 0 || pa.y() < 0 || pa.x() > robot.camera.truth.width || pa.y() > robot.camera.truth.height) continue;
+    ++seen;
+    largest = std::max(largest, (pa - pb).norm());
+  }
+  EXPECT_GT(seen, 100);
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LE(largest, bound);
+}

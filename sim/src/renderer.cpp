@@ -596,15 +596,6 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
                                           : static_cast<uint16_t>(azimuthBin(std::atan2(d.y(), d.x())));
     }
   }
-  for (int v = 0; v < height_; ++v) {
-    for (int u = 0; u < width_; ++u) {
-      const size_t i = static_cast<size_t>(v * (width_ + 1) + u);
-      if (!corner_valid_[i] || !corner_valid_[i + 1] || !corner_valid_[i + width_ + 1] ||
-          !corner_valid_[i + width_ + 2]) {
-        ++invalid_pixels_;
-      }
-    }
-  }
   // A 4 x 4 block may be blended from its outer corners only if all its 25 corners are valid rays.
   if (width_ % 4 == 0 && height_ % 4 == 0) {
     block4_valid_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 1);

@@ -64,8 +64,6 @@ class Renderer {
 
   const CameraModel& camera() const { return camera_; }
 
-  /// Pixels of the image whose ray could not be traced (outside the distortion model's domain).
-  int invalidPixels() const { return invalid_pixels_; }
 
   /// Still frames rendered anew and still frames that reused the last one's noiseless image.
   uint64_t stillFramesRendered() const { return still_rendered_; }
@@ -95,7 +93,6 @@ class Renderer {
   mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
   mutable uint32_t frame_ = 0;
   std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2
-  int invalid_pixels_ = 0;
   std::vector<float> noise_table_;
   double px_per_rad_ = 0;  ///< largest image motion [px] per radian a ray turns (finest pixel)
   // The last still frame: its noiseless image, pose and nearest traced surface [m].

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "autocal/io/type_names.h"
+
 namespace autocal {
 
 namespace {
@@ -13,32 +15,6 @@ std::string where(const std::string& file, const YAML::Node& node) {
   return ss.str();
 }
 
-template <typename T>
-const char* typeName();
-template <>
-const char* typeName<double>() {
-  return "a number";
-}
-template <>
-const char* typeName<int>() {
-  return "an integer";
-}
-template <>
-const char* typeName<bool>() {
-  return "true or false";
-}
-template <>
-const char* typeName<std::string>() {
-  return "a string";
-}
-template <>
-const char* typeName<std::vector<double>>() {
-  return "a list of numbers";
-}
-template <>
-const char* typeName<std::vector<std::vector<double>>>() {
-  return "a list of lists of numbers";
-}
 }  // namespace
 
 YamlMap YamlMap::loadFile(const std::string& path) {
@@ -115,7 +91,7 @@ T YamlMap::convert(const std::string& key, const YAML::Node& value) const {
   } catch (const YAML::Exception&) {
     std::string got =
         value.IsScalar() ? "'" + value.Scalar() + "'" : (value.IsSequence() ? "a list" : "a map");
-    fail(key, std::string("expected ") + typeName<T>() + ", got " + got);
+    fail(key, std::string("expected ") + expectedTypeName<T>() + ", got " + got);
   }
 }
 

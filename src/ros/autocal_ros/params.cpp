@@ -4,6 +4,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
+#include "autocal/io/type_names.h"
 
 namespace autocal {
 namespace ros_layer {
@@ -14,24 +15,6 @@ std::string show(int v) { return std::to_string(v); }
 std::string show(bool v) { return v ? "true" : "false"; }
 std::string show(const std::string& v) { return "'" + v + "'"; }
 
-template <typename T>
-const char* typeName();
-template <>
-const char* typeName<double>() {
-  return "a number";
-}
-template <>
-const char* typeName<int>() {
-  return "an integer";
-}
-template <>
-const char* typeName<bool>() {
-  return "true or false";
-}
-template <>
-const char* typeName<std::string>() {
-  return "a string";
-}
 }  // namespace
 
 ParamReader::ParamReader(const ros::NodeHandle& pnh, std::string node_name)
@@ -49,7 +32,8 @@ void ParamReader::read(const std::string& name, T& value, bool required) const {
   }
   T read_value{};
   if (!pnh_.getParam(name, read_value)) {
-    throw ConfigError(key + ": expected " + typeName<T>() + " (" + pnh_.resolveName(name) + ")");
+    throw ConfigError(key + ": expected " + expectedTypeName<T>() + " (" + pnh_.resolveName(name) +
+                      ")");
   }
   if constexpr (std::is_same_v<T, double>) {
     if (!std::isfinite(read_value)) throw ConfigError(key + ": must be a finite number");

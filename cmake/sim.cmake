@@ -27,6 +27,7 @@ if(CATKIN_ENABLE_TESTING)
   # rostests of the node: one test executable, each .test file runs some of its cases.
   add_rostest_gtest(test_sim_node test/sim/sim_topics.test test/sim/test_sim_node.cpp)
   target_link_libraries(test_sim_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_sim_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
   autocal_ros_target(test_sim_node)
   target_compile_definitions(test_sim_node PRIVATE
     AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}" SIM_NODE_BIN="$<TARGET_FILE:sim_node>")

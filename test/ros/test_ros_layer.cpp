@@ -14,22 +14,14 @@
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
 #include "autocal_ros/params.h"
+#include "support/ros_wait.h"
 
 using namespace autocal;
 using namespace autocal::ros_layer;
 
 namespace {
 
-/// Spins until `done()` or `wall_timeout_s` of wall time.
-template <typename F>
-bool spinUntil(F done, double wall_timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(0.01));
-    if (done()) return true;
-  }
-  return done();
-}
+using autocal::test::spinUntil;
 
 }  // namespace
 

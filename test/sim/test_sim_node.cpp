@@ -24,11 +24,14 @@
 #include "autocal/exit_codes.h"
 #include "autocal/sim/config.h"
 #include "autocal_ros/msgs.h"
+#include "support/ros_wait.h"
 
 namespace {
 
 using autocal::dtmsg::WheelEncoderStamped;
 using autocal::dtmsg::WheelsCmdStamped;
+using autocal::test::spinUntil;
+using autocal::test::spinUntilSimTime;
 
 std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"; }
 
@@ -40,28 +43,6 @@ T testParam(const std::string& name) {
     ADD_FAILURE() << "the .test file does not set ~" << name;
   }
   return value;
-}
-
-/// Processes callbacks until sim time reaches `t_s`; false when `wall_timeout_s` (a guard against
-/// a hung simulator, not a timing) runs out first.
-bool spinUntilSimTime(double t_s, double wall_timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
-  while (ros::ok() && ros::WallTime::now() < deadline) {
-    // Blocks until a message arrives (at most 10 ms), then handles all that are queued.
-    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(0.01));
-    if (ros::Time::isValid() && ros::Time::now().toSec() >= t_s) return true;
-  }
-  return false;
-}
-
-/// Processes callbacks until `done()`; false when `wall_timeout_s` runs out first.
-template <typename F>
-bool spinUntil(F done, double wall_timeout_s) {
-  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wall_timeout_s);
-  while (ros::ok() && !done() && ros::WallTime::now() < deadline) {
-    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(0.01));
-  }
-  return done();
 }
 
 /// Header stamps received per topic.

@@ -226,11 +226,8 @@ TEST(SimNode, MovesOnWheelsCmdAndTheWatchdogStopsIt) {
     return spinUntil(
         [&] { return !log.truth.empty() && log.truth.back().header.stamp.toSec() >= t_s; }, 60.0);
   };
-  const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (cmd_pub.getNumSubscribers() == 0 && ros::WallTime::now() < connect_deadline) {
-    ros::getGlobalCallbackQueue()->callAvailable(ros::WallDuration(0.01));
-  }
-  ASSERT_GT(cmd_pub.getNumSubscribers(), 0u) << "the simulator does not listen to wheels_cmd";
+  ASSERT_TRUE(spinUntil([&] { return cmd_pub.getNumSubscribers() > 0; }, 30.0))
+      << "the simulator does not listen to wheels_cmd";
 
   // At real_time_factor 0 the simulator may be far ahead already: wait for data, not a time.
   ASSERT_TRUE(spinUntil([&] { return log.have_ticks && log.truth.size() > 10; }, 60.0));

@@ -7,7 +7,8 @@ target_sources(autocal_core PRIVATE
   src/core/camera/calibration_files.cpp
   src/core/camera/wheel_turn.cpp
   src/core/camera/sweep_controller.cpp
-  src/core/camera/min_duty_probe.cpp)
+  src/core/camera/min_duty_probe.cpp
+  src/core/camera/sweep_run.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
@@ -49,4 +50,12 @@ set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY
 if(CATKIN_ENABLE_TESTING)
   # The calibration core on the simulator's rendered frames, against the simulator's true lens.
   autocal_core_gtest(test_camera_in_sim SOURCES test/camera/test_camera_in_sim.cpp LIBS autocal_core autocal_sim_core)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # The camera stage on the simulator's core (no ROS), against the simulator's true lens.
+  target_sources(autocal_test_support PRIVATE test/support/sweep_in_sim.cpp)
+  target_link_libraries(autocal_test_support PUBLIC autocal_sim_core)
+  autocal_core_gtest(test_sweep_run_in_sim SOURCES test/camera/test_sweep_run_in_sim.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
 endif()

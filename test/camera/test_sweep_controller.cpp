@@ -337,6 +337,25 @@ TEST(SweepController, FirstPassCrossesAGap) {
   EXPECT_EQ(t.recovery_targets.count(2), 1u);
 }
 
+TEST(SweepController, NarrowLensHandsOverFromOneBoardToTheNextWithinAStep) {
+  // A narrow lens (70°) sees one board at a time, and with large steps (6°) one board leaves by
+  // the trailing edge in the same step as the next one comes in by the leading edge: no board is
+  // matched across that step, and the newcomer is the next board, not the one that left.
+  World w = World::semicircle();
+  w.hfov_rad = 70 * kDeg;
+  w.half_width_rad = 14 * kDeg;
+  w.step_rad = 6 * kDeg;
+  SweepOptions o;
+  o.camera_hfov_rad = 92 * kDeg;  // camera_info's nominal lens, wider than the true one
+  o.max_passes = 2;
+  SweepController c(o);
+  const Trace t = run(w, c);
+  EXPECT_EQ(c.boardCount(), 5);
+  EXPECT_EQ(c.startBoard(), 2);
+  EXPECT_EQ(t.mismatches, 0) << t.first_mismatch;
+  EXPECT_NE(t.last.reason.find("2 passes over the 5 boards"), std::string::npos) << t.last.reason;
+}
+
 TEST(SweepController, WrongBoardCountIsReported) {
   World w = World::semicircle();
   SweepController c(known(4, 2));  // there are 5: board "4" shows up beyond the last

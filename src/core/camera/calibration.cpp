@@ -167,10 +167,11 @@ double heldOut(const Points3& obj, const Points2& img, const CameraIntrinsics& i
 
 // Mean held-out RMS over folds (leave-one-out up to max_folds views).
 double crossValidate(const std::vector<Points3>& obj, const std::vector<Points2>& img,
-                     const cv::Size& size, DistortionModel model, int flags, int max_folds) {
+                     const cv::Size& size, DistortionModel model, int flags, int max_folds,
+                     const CameraIntrinsics* guess) {
   const int n = static_cast<int>(obj.size());
   const int folds = std::min(n, max_folds);
-  const Fit all = fit(obj, img, size, model, flags);
+  const Fit all = fit(obj, img, size, model, flags, guess);
   double sum = 0;
   int count = 0;
   for (int fold = 0; fold < folds; ++fold) {
@@ -202,6 +203,19 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
                             const cv::Size& image_size, const BoardSpec& board_spec,
                             const CalibrationOptions& options) {
   const size_t n_corners = static_cast<size_t>(board_spec.cornerCount());
+  std::optional<CameraIntrinsics> start;
+  if (options.initial_camera_matrix) {
+    const cv::Matx33d& k = *options.initial_camera_matrix;
+    if (!(std::isfinite(k(0, 0)) && std::isfinite(k(1, 1)) && std::isfinite(k(0, 2)) &&
+          std::isfinite(k(1, 2)) && k(0, 0) > 0 && k(1, 1) > 0))
+      throw InputError("initial camera matrix: fx, fy must be finite and > 0, cx, cy finite");
+    start.emplace();
+    start->distortion_model = options.model;
+    start->setImageSize(image_size);
+    start->setCameraMatrix(k);
+    start->distortion_coefficients.assign(distortionCount(options.model), 0.0);
+  }
+  const CameraIntrinsics* guess = start ? &*start : nullptr;
   for (size_t v = 0; v < views.size(); ++v) {
     if (views[v].size() != n_corners) {
       throw InputError("view " + std::to_string(v) + " has " + std::to_string(views[v].size()) +
@@ -281,7 +295,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   const size_t judge_level = 1;
   for (int round = 0; round < options.max_outlier_rounds; ++round) {
     gather(obj, img);
-    const Fit f = fit(obj, img, image_size, options.model, judge_set.flags);
+    const Fit f = fit(obj, img, image_size, options.model, judge_set.flags, guess);
     judge_fit.reset();
     // Residuals of every corner; a corner is an outlier beyond a limit set by the median view
     // (robust to the outliers themselves). A view is an outlier when too many of its corners
@@ -392,11 +406,11 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     // uncertainty: such a term fits the noise of these views, not the lens (issue 3: ROS's fits
     // swing by 15 px in fx between folds of 13 photos).
     size_t level = sets.size() - 1;
-    Fit f = fit(obj, img, image_size, options.model, sets[level].flags);
+    Fit f = fit(obj, img, image_size, options.model, sets[level].flags, guess);
     const auto fitLevel = [&](size_t l) {
       return (l == judge_level && judge_fit)
                  ? *judge_fit
-                 : fit(obj, img, image_size, options.model, sets[l].flags);
+                 : fit(obj, img, image_size, options.model, sets[l].flags, guess);
     };
     while (level > 0) {
       // The simpler model nests in this one, so at the optimum this one's RMS is lower. When it
@@ -434,8 +448,8 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     // the views cannot constrain lowers the training RMS and raises the error on unseen views.
     std::vector<double> scores;
     for (const TermSet& s : sets) {
-      scores.push_back(
-          crossValidate(obj, img, image_size, options.model, s.flags, options.max_selection_folds));
+      scores.push_back(crossValidate(obj, img, image_size, options.model, s.flags,
+                                     options.max_selection_folds, guess));
     }
     const double best = *std::min_element(scores.begin(), scores.end());
     for (size_t i = 0; i < sets.size(); ++i) {
@@ -450,7 +464,8 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       }
     }
   }
-  const Fit f = final_fit ? *final_fit : fit(obj, img, image_size, options.model, chosen.flags);
+  const Fit f =
+      final_fit ? *final_fit : fit(obj, img, image_size, options.model, chosen.flags, guess);
   result.intrinsics = f.intrinsics;
   result.rms_px = f.rms_px;
   result.std_devs = f.std_devs;

@@ -272,6 +272,25 @@ void SweepController::track(const std::vector<double>& xs_in, double shift) {
       start_in_view_ = steps_ == 1;
       start_ordinal_ = ord[best];
       ord_min_ = ord_max_ = ord[best];
+    } else if (!frame_.empty()) {
+      // Nothing matched within one step: the last frame's boards left by the trailing edge (or
+      // dropped out) while others came in — a narrow lens sees one board at a time. Number them
+      // from the last frame's board nearest the direction of travel: a board on the leading side
+      // of where that board is now expected is the next one (boards are numbered
+      // counter-clockwise: on a counter-clockwise turn the next board enters on the left).
+      const bool ccw = direction_ == TurnDirection::kCcw;
+      const Tracked* lead = &frame_.front();
+      for (const Tracked& t : frame_) {
+        if (ccw ? t.ordinal > lead->ordinal : t.ordinal < lead->ordinal) lead = &t;
+      }
+      const double lead_x = lead->x + shift;
+      int best = 0;
+      for (int i = 1; i < n; ++i) {
+        if (std::abs(xs[i] - lead_x) < std::abs(xs[best] - lead_x)) best = i;
+      }
+      const bool leading_side = ccw ? xs[best] < lead_x : xs[best] > lead_x;
+      ord[best] = leading_side ? lead->ordinal + sign(direction_) : lead->ordinal;
+      known[best] = true;
     } else {
       // Cannot happen (an empty last frame always leaves lost_ active); keep the last board.
       ord[0] = board_;

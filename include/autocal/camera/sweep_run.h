@@ -1,0 +1,169 @@
+// The camera stage of the self-calibration, ROS-free (paper 000 §3.1–3.2): find the minimum moving
+// duty of each wheel, then turn one wheel at a time in steps past the boards — a duty pulse, stop,
+// wait until the wheels are still and the image has settled, grab one frame, detect, keep the
+// views worth keeping, let the SweepController choose the next step — and finally calibrate the
+// kept views (Zhang's method through OpenCV) and apply the quality gate.
+//
+// The node feeds it time, encoder readings and frames and commands the duties update() returns;
+// everything here runs on the stamps it is given (sim time in the simulator), so it is tested
+// without a master. Failures are thrown as CalibrationError (sweep, camera or encoders silent,
+// quality gate) and InputError (bad frames the caller must not pass: see addFrame).
+#pragma once
+
+#include <array>
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/camera/camera_config.h"
+#include "autocal/camera/min_duty_probe.h"
+#include "autocal/camera/sweep_controller.h"
+#include "autocal/camera/view_selection.h"
+#include "autocal/sensors.h"
+
+namespace autocal {
+namespace camera {
+
+struct SweepRunOptions {
+  SweepOptions sweep;
+  MinDutyProbeOptions probe;
+  /// Measure the minimum moving duty of each wheel and direction before the sweep (paper §3.2);
+  /// false: use `min_duty` for all four.
+  bool probe_min_duty = true;
+  double min_duty = 0.1;
+  /// Heading change one step should make [rad]: the pulse's duty above the wheel's minimum is
+  /// adapted after every step toward it (0 = always minimum + SweepOptions::step_duty_margin, the
+  /// paper's slowest stepping). About 1/15 of the field of view keeps consecutive frames
+  /// overlapping while a pass over five boards takes ~40 steps.
+  double target_step_rad = 0.1;
+  /// Highest duty a step may use [1].
+  double max_step_duty = 0.5;
+  /// Nominal wheel radius and wheelbase (Duckietown defaults): only turn encoder ticks into a
+  /// heading change for the controller, which tolerates their error [m].
+  double nominal_wheel_radius_m = 0.0318;
+  double nominal_wheelbase_m = 0.1;
+  /// The wheels count as still when no encoder changed for this long [s].
+  double still_s = 0.1;
+  /// No frame (encoder reading) for this long while running is a failure [s].
+  double camera_timeout_s = 5.0;
+  double encoder_timeout_s = 2.0;
+  /// The whole stage may take this long (probe + sweep) [s]; then it fails.
+  double max_duration_s = 600.0;
+  /// Coverage goal of the sweep, replacing the camera config's view_selection goal_spread (x, y,
+  /// size, skew, distance, tilt spreads, normalised as in ViewParams). A hand-held board can be
+  /// moved anywhere; boards standing in a semicircle at one height, seen by a robot that only
+  /// turns, span the image's width, tilt and skew but little height, size or distance, so ROS's
+  /// goals (y 0.7, size 0.4) are out of reach. Negative: keep the config's goal.
+  std::array<double, 6> coverage_goal{{0.6, 0.05, 0.08, 0.2, 0.1, 0.25}};
+  /// Views the sweep must keep before its coverage counts (with coverage_goal).
+  int min_views = 15;
+  /// Keep (refined) corners of every sharp board seen, for comparing with a plain OpenCV fit on
+  /// all of them (audit, benchmarks); costs a sub-pixel refinement per board.
+  bool keep_sharp_views = true;
+  /// Calibrate on every sharp board seen (needs keep_sharp_views) instead of only the views the
+  /// collector kept for their novelty. Novelty decides when the sweep has seen enough; the fit
+  /// gains from every sharp view (a robot that stops for each frame sees 30–50 at no cost).
+  bool calibrate_on_sharp_views = true;
+
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+enum class SweepRunStage { kWaitForData, kProbe, kSweep, kSwept, kFailed };
+const char* name(SweepRunStage stage);  ///< "wait", "probe", "collect", "calibrate", "failed"
+
+/// What the last processed frame showed (for the debug image and the status).
+struct SweepFrameReport {
+  double stamp_s = 0;
+  FrameResult frame;
+  SweepDecision decision;
+};
+
+class SweepRun {
+ public:
+  /// Throws ConfigError for invalid options or config.
+  SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig& camera);
+
+  /// Cumulative encoder ticks of both wheels (each may come in its own message: pass the latest of
+  /// the other). `stamp_s` orders the readings; a reading older than the last is ignored.
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution);
+  /// A frame is wanted only while the robot stands settled after a step (and once at the start):
+  /// check before decoding one.
+  bool wantsFrame(double stamp_s) const;
+  /// Noted for the camera timeout even when not wanted (no decoding needed).
+  void noteFrameArrived(double now_s);
+  /// Processes a wanted frame (8-bit grey or colour, the size of the first frame: the caller
+  /// drops others). Returns false when it was not wanted.
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source);
+  /// Advances the state at time `now_s` and returns the duties to command now. Throws
+  /// CalibrationError when the stage fails (the reason names what went wrong).
+  WheelDuties update(double now_s);
+
+  SweepRunStage stage() const { return stage_; }
+  /// The sweep is over with enough views: calibrate() may be called.
+  bool swept() const { return stage_ == SweepRunStage::kSwept; }
+  /// Calibrates the kept views and applies the quality gate; throws CalibrationError when the views
+  /// cannot determine the model or the result fails the gate.
+  CalibrationResult calibrate() const;
+
+  const SweepController& controller() const { return controller_; }
+  const ViewCollector& collector() const { return collector_; }
+  const MinDutyProbe& probe() const { return probe_; }
+  /// Minimum moving duty per wheel and direction (measured, or the configured one).
+  MinDutyResult minDuty() const;
+  /// Corners of every sharp board seen (see keep_sharp_views).
+  const std::vector<std::vector<cv::Point2f>>& sharpViews() const { return sharp_views_; }
+  /// Kept frames by ViewCollector frame index (for the audit folder).
+  const std::map<int, cv::Mat>& keptFrames() const { return kept_frames_; }
+  const SweepFrameReport& lastFrame() const { return last_frame_; }
+  /// Seconds since the stage started (0 before), steps made, frames processed.
+  double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
+  int framesProcessed() const { return collector_.frames(); }
+  /// Progress of the stage, 0..1 (probe ~0.05, sweep by coverage and passes).
+  double progress() const;
+  /// One line for the status, e.g. "probe: left forward at duty 0.09" or the controller's line.
+  std::string describe() const;
+
+ private:
+  enum class Step { kPulse, kSettle };
+  void startPulse(double now_s, const WheelDuties& duties, double length_s);
+  bool settled(double now_s) const;
+  double headingChangeSinceObservation();
+  [[noreturn]] void fail(const std::string& reason);
+
+  SweepRunOptions options_;
+  CameraCalibrationConfig camera_;
+  SweepController controller_;
+  MinDutyProbe probe_;
+  ViewCollector collector_;
+  SweepRunStage stage_ = SweepRunStage::kWaitForData;
+  Step step_ = Step::kSettle;
+  WheelDuties duties_;
+  double duty_above_min_ = 0;
+  bool last_was_turn_ = false;
+  bool probe_pulsed_ = false;
+  bool pending_decision_ = false;  ///< a frame was processed; update() acts on its decision
+  double settled_at_s_ = -1;       ///< when the robot was found settled (-1: not yet)
+  bool have_first_update_ = false;
+  double first_update_s_ = 0;
+
+  bool started_ = false;
+  double start_s_ = 0, last_now_s_ = 0;
+  double pulse_end_s_ = 0, stop_s_ = 0;
+  bool have_encoders_ = false;
+  double encoder_stamp_s_ = 0, encoder_arrival_s_ = 0, last_change_s_ = 0;
+  int left_ = 0, right_ = 0, ticks_per_rev_ = 0;
+  int probe_start_left_ = 0, probe_start_right_ = 0;
+  int obs_left_ = 0, obs_right_ = 0;  ///< ticks at the last observation
+  bool have_frame_ = false;
+  double frame_arrival_s_ = 0;
+  bool first_observation_ = true;
+  std::vector<std::vector<cv::Point2f>> sharp_views_;
+  std::map<int, cv::Mat> kept_frames_;
+  SweepFrameReport last_frame_;
+};
+
+}  // namespace camera
+}  // namespace autocal

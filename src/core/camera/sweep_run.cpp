@@ -1,0 +1,345 @@
+// The camera stage's step loop (paper 000 §3.2): pulse, stop, settle, grab, detect, decide.
+#include "autocal/camera/sweep_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace camera {
+
+void SweepRunOptions::validate() const {
+  sweep.validate();
+  probe.validate();
+  auto check = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) throw ConfigError(key + ": " + what);
+  };
+  check(std::isfinite(min_duty) && min_duty > 0 && min_duty < 1, "min_duty", "must be in (0, 1)");
+  check(std::isfinite(target_step_rad) && target_step_rad >= 0 && target_step_rad < 1.0,
+        "target_step_rad", "must be in [0, 1) rad (0 = minimum duty steps)");
+  check(std::isfinite(max_step_duty) && max_step_duty > 0 && max_step_duty <= 1, "max_step_duty",
+        "must be in (0, 1]");
+  check(std::isfinite(nominal_wheel_radius_m) && nominal_wheel_radius_m > 0,
+        "nominal_wheel_radius_m", "must be > 0");
+  check(std::isfinite(nominal_wheelbase_m) && nominal_wheelbase_m > 0, "nominal_wheelbase_m",
+        "must be > 0");
+  check(std::isfinite(still_s) && still_s >= 0, "still_s", "must be >= 0");
+  check(std::isfinite(camera_timeout_s) && camera_timeout_s > 0, "camera_timeout_s", "must be > 0");
+  check(std::isfinite(encoder_timeout_s) && encoder_timeout_s > 0, "encoder_timeout_s",
+        "must be > 0");
+  check(std::isfinite(max_duration_s) && max_duration_s > 0, "max_duration_s", "must be > 0");
+  for (double g : coverage_goal)
+    check(std::isfinite(g) && g <= 1.0, "coverage_goal",
+          "each spread must be <= 1 (negative: the config's)");
+  check(min_views >= 1, "min_views", "must be >= 1");
+}
+
+const char* name(SweepRunStage stage) {
+  switch (stage) {
+    case SweepRunStage::kWaitForData:
+      return "wait";
+    case SweepRunStage::kProbe:
+      return "probe";
+    case SweepRunStage::kSweep:
+      return "collect";
+    case SweepRunStage::kSwept:
+      return "calibrate";
+    case SweepRunStage::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+namespace {
+
+const SweepRunOptions& validated(const SweepRunOptions& o) {
+  o.validate();
+  return o;
+}
+
+/// The camera config with the sweep's coverage goal.
+CameraCalibrationConfig forSweep(CameraCalibrationConfig c, const SweepRunOptions& o) {
+  c.validate();
+  for (size_t i = 0; i < o.coverage_goal.size(); ++i) {
+    if (o.coverage_goal[i] >= 0) c.selection.goal_spread[i] = o.coverage_goal[i];
+  }
+  c.selection.min_views = o.min_views;
+  c.validate();
+  return c;
+}
+
+}  // namespace
+
+SweepRun::SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig& camera)
+    : options_(validated(options)),
+      camera_(forSweep(camera, options_)),
+      controller_(options.sweep),
+      probe_(options.probe),
+      collector_(camera_.board, camera_.detector, camera_.selection) {
+  duty_above_min_ = std::max(options_.sweep.step_duty_margin, 0.03);
+}
+
+void SweepRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                           int ticks_per_revolution) {
+  if (ticks_per_revolution <= 0)
+    throw InputError("encoder resolution " + std::to_string(ticks_per_revolution) +
+                     ": must be > 0 ticks per revolution");
+  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
+  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
+  if (!have_encoders_) {
+    obs_left_ = probe_start_left_ = left_ticks;
+    obs_right_ = probe_start_right_ = right_ticks;
+  }
+  have_encoders_ = true;
+  encoder_stamp_s_ = stamp_s;
+  encoder_arrival_s_ = std::max(encoder_arrival_s_, last_now_s_);
+  left_ = left_ticks;
+  right_ = right_ticks;
+  ticks_per_rev_ = ticks_per_revolution;
+}
+
+void SweepRun::noteFrameArrived(double now_s) {
+  have_frame_ = true;
+  frame_arrival_s_ = std::max(frame_arrival_s_, now_s);
+}
+
+bool SweepRun::settled(double now_s) const {
+  if (now_s < stop_s_ + (stage_ == SweepRunStage::kProbe ? options_.probe.settle_s
+                                                         : options_.sweep.settle_s))
+    return false;
+  if (now_s >= stop_s_ + options_.sweep.max_settle_s) return true;  // use the frame as it is
+  return encoder_stamp_s_ - last_change_s_ >= options_.still_s && encoder_stamp_s_ >= stop_s_;
+}
+
+bool SweepRun::wantsFrame(double stamp_s) const {
+  return stage_ == SweepRunStage::kSweep && step_ == Step::kSettle && !pending_decision_ &&
+         settled_at_s_ >= 0 && stamp_s >= settled_at_s_;
+}
+
+double SweepRun::headingChangeSinceObservation() {
+  const double m_per_tick = 2 * M_PI * options_.nominal_wheel_radius_m / ticks_per_rev_;
+  const double turned =
+      ((right_ - obs_right_) - (left_ - obs_left_)) * m_per_tick / options_.nominal_wheelbase_m;
+  obs_left_ = left_;
+  obs_right_ = right_;
+  return turned;
+}
+
+bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {
+  if (!wantsFrame(stamp_s)) return false;
+  const int frame_index = collector_.frames();
+  FrameResult frame = collector_.addFrame(image, source);
+  if (frame.any_kept()) kept_frames_[frame_index] = image.clone();
+
+  SweepObservation obs;
+  for (const ViewDecision& d : frame.decisions) {
+    obs.boards_x.push_back(std::min(1.0, std::max(0.0, d.params.x)));
+    const bool sharp = d.edge_width_px <= camera_.selection.max_edge_width_px;
+    if (options_.keep_sharp_views && sharp) {
+      if (d.kept) {
+        sharp_views_.push_back(d.corners);
+      } else if (static_cast<int>(d.corners.size()) == camera_.board.cornerCount()) {
+        BoardDetection b{d.corners};
+        refineCorners(toGray(image), camera_.board, b, camera_.detector);
+        sharp_views_.push_back(b.corners);
+      }
+    }
+  }
+  obs.view_kept = frame.any_kept();
+  obs.coverage_sufficient = collector_.coverage().sufficient;
+  const double turned = headingChangeSinceObservation();
+  obs.turned_rad = first_observation_ ? 0.0 : turned;
+  // Steps toward target_step_rad: the wheel speed grows about linearly with the duty above the
+  // deadband, so the duty above the minimum is scaled by the ratio (bounded per step).
+  if (!first_observation_ && options_.target_step_rad > 0 && last_was_turn_) {
+    const double ratio = options_.target_step_rad / std::max(std::abs(turned), 1e-3);
+    duty_above_min_ *= std::min(2.0, std::max(0.5, ratio));
+    duty_above_min_ = std::max(options_.sweep.step_duty_margin,
+                               std::min(duty_above_min_, options_.max_step_duty));
+  }
+  first_observation_ = false;
+  last_frame_.stamp_s = stamp_s;
+  last_frame_.frame = std::move(frame);
+  last_frame_.decision = controller_.decide(obs);
+  pending_decision_ = true;
+  return true;
+}
+
+MinDutyResult SweepRun::minDuty() const {
+  if (options_.probe_min_duty) return probe_.result();
+  MinDutyResult r;
+  r.left_forward = r.left_backward = r.right_forward = r.right_backward = options_.min_duty;
+  return r;
+}
+
+void SweepRun::fail(const std::string& reason) {
+  stage_ = SweepRunStage::kFailed;
+  throw CalibrationError(reason);
+}
+
+void SweepRun::startPulse(double now_s, const WheelDuties& duties, double length_s) {
+  duties_ = duties;
+  step_ = Step::kPulse;
+  pulse_end_s_ = now_s + length_s;
+  settled_at_s_ = -1;
+}
+
+WheelDuties SweepRun::update(double now_s) {
+  const WheelDuties stop{0, 0};
+  if (stage_ == SweepRunStage::kFailed || stage_ == SweepRunStage::kSwept) return stop;
+  if (!have_first_update_) {
+    have_first_update_ = true;
+    first_update_s_ = now_s;
+  }
+  last_now_s_ = std::max(last_now_s_, now_s);
+
+  if (stage_ == SweepRunStage::kWaitForData) {
+    if (!have_frame_ && now_s - first_update_s_ > options_.camera_timeout_s)
+      fail("no camera frame in " + formatNumber(options_.camera_timeout_s, 3) +
+           " s: is the camera running (camera_node/image)?");
+    if (!have_encoders_ && now_s - first_update_s_ > options_.encoder_timeout_s)
+      fail("no encoder reading of both wheels in " + formatNumber(options_.encoder_timeout_s, 3) +
+           " s: are the wheel encoders running (left/right_wheel_encoder_node/tick)?");
+    if (!have_frame_ || !have_encoders_) return stop;
+    started_ = true;
+    start_s_ = now_s;
+    stage_ = options_.probe_min_duty ? SweepRunStage::kProbe : SweepRunStage::kSweep;
+    step_ = Step::kSettle;
+    stop_s_ = now_s;
+    settled_at_s_ = -1;
+  }
+
+  if (now_s - frame_arrival_s_ > options_.camera_timeout_s)
+    fail("the camera has been silent for " + formatNumber(now_s - frame_arrival_s_, 3) +
+         " s (camera_timeout_s " + formatNumber(options_.camera_timeout_s, 3) + ")");
+  if (now_s - encoder_arrival_s_ > options_.encoder_timeout_s)
+    fail("the encoders have been silent for " + formatNumber(now_s - encoder_arrival_s_, 3) +
+         " s (encoder_timeout_s " + formatNumber(options_.encoder_timeout_s, 3) + ")");
+  if (now_s - start_s_ > options_.max_duration_s)
+    fail("the camera stage took longer than max_duration_s " +
+         formatNumber(options_.max_duration_s, 3) + " s (" + controller_.describe() + ")");
+
+  if (step_ == Step::kPulse) {
+    if (now_s < pulse_end_s_) return duties_;
+    step_ = Step::kSettle;
+    stop_s_ = now_s;
+    settled_at_s_ = -1;
+    duties_ = stop;
+    return stop;
+  }
+
+  // Settling (or waiting for the settled frame).
+  if (settled_at_s_ < 0) {
+    if (!settled(now_s)) return stop;
+    settled_at_s_ = now_s;
+  }
+  if (stage_ == SweepRunStage::kProbe) {
+    const WheelCommand probed = probe_.command();
+    const int moved =
+        probed.wheel == Wheel::kLeft ? left_ - probe_start_left_ : right_ - probe_start_right_;
+    if (probe_pulsed_) probe_.report(moved, false);  // signed, + = forward
+    if (probe_.failed()) fail("minimum duty probe: " + probe_.failure());
+    if (probe_.finished()) {
+      stage_ = SweepRunStage::kSweep;
+      stop_s_ = now_s;
+      settled_at_s_ = -1;
+      return stop;
+    }
+    probe_start_left_ = left_;
+    probe_start_right_ = right_;
+    probe_pulsed_ = true;
+    startPulse(now_s, probe_.pulse(), options_.probe.pulse_s);
+    return duties_;
+  }
+
+  if (!pending_decision_) return stop;  // waiting for a frame taken after settled_at_s_
+  pending_decision_ = false;
+  const SweepDecision& decision = last_frame_.decision;
+  if (decision.action == SweepAction::kFailed) fail("sweep: " + decision.reason);
+  if (decision.action == SweepAction::kDone) {
+    stage_ = SweepRunStage::kSwept;
+    return stop;
+  }
+  const WheelCommand cmd = turnCommand(decision.direction, options_.sweep.pivot);
+  const double duty = std::min(options_.max_step_duty, minDuty().forCommand(cmd) + duty_above_min_);
+  last_was_turn_ = true;
+  startPulse(now_s, toDuties(cmd, duty), options_.sweep.step_duration_s);
+  return duties_;
+}
+
+CalibrationResult SweepRun::calibrate() const {
+  if (!swept()) throw CalibrationError("calibrate() before the sweep ended");
+  std::vector<std::vector<cv::Point2f>> corners;
+  if (options_.calibrate_on_sharp_views) {
+    corners = sharp_views_;
+  } else {
+    for (const CalibrationView& v : collector_.views()) corners.push_back(v.corners);
+  }
+  if (corners.empty())
+    throw CalibrationError("no usable view of a " + camera_.board.describe() + " board in " +
+                           std::to_string(collector_.frames()) + " frames");
+  CalibrationResult result =
+      camera::calibrate(corners, collector_.imageSize(), camera_.board, camera_.calibration);
+  const std::vector<std::string> failures = checkQuality(result, camera_.quality_gate);
+  if (!failures.empty()) {
+    std::string msg = "the result fails the quality gate, nothing written:";
+    for (const auto& f : failures) msg += " " + f + ";";
+    msg.pop_back();
+    throw CalibrationError(msg);
+  }
+  return result;
+}
+
+double SweepRun::progress() const {
+  switch (stage_) {
+    case SweepRunStage::kWaitForData:
+      return 0;
+    case SweepRunStage::kProbe:
+      return 0.05 * std::min(4, probe_.pulses()) / 4.0;
+    case SweepRunStage::kSweep: {
+      const Coverage c = collector_.coverage();
+      double mean = 0;
+      for (double p : c.progress) mean += p / c.progress.size();
+      const double passes =
+          static_cast<double>(controller_.pass()) / (options_.sweep.max_passes + 1);
+      return 0.05 + 0.9 * std::min(1.0, std::max(mean, passes));
+    }
+    case SweepRunStage::kSwept:
+    case SweepRunStage::kFailed:
+      return 0.95;
+  }
+  return 0;
+}
+
+std::string SweepRun::describe() const {
+  std::ostringstream s;
+  switch (stage_) {
+    case SweepRunStage::kWaitForData:
+      s << "waiting for " << (have_frame_ ? "" : "the camera")
+        << (have_frame_ || have_encoders_ ? "" : " and ") << (have_encoders_ ? "" : "the encoders");
+      break;
+    case SweepRunStage::kProbe: {
+      const WheelCommand c = probe_.command();
+      s << "minimum duty: " << name(c.wheel) << " wheel " << (c.sign > 0 ? "forward" : "backward")
+        << " at duty " << formatNumber(probe_.duty(), 3);
+      break;
+    }
+    case SweepRunStage::kSweep:
+      s << controller_.describe() << ", " << collector_.coverage().summary();
+      break;
+    case SweepRunStage::kSwept:
+      s << "swept: " << collector_.views().size() << " views in " << collector_.frames()
+        << " frames, " << controller_.steps() << " steps";
+      break;
+    case SweepRunStage::kFailed:
+      s << "failed";
+      break;
+  }
+  return s.str();
+}
+
+}  // namespace camera
+}  // namespace autocal

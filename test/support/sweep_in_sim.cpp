@@ -1,0 +1,89 @@
+#include "support/sweep_in_sim.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
+
+namespace autocal {
+namespace test {
+
+SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
+                         camera::SweepRun& run, const SweepInSimOptions& options) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  sim::Simulation simulation(robot, world, sim::SimulationOptions());
+  sim::RenderOptions render;
+  render.supersampling = robot.camera.supersampling;
+  render.noise_sigma = robot.camera.noise_sigma;
+  render.noise_seed = options.seed;
+  const sim::Renderer renderer(robot.camera, world, render);
+  std::mt19937_64 rng(options.seed);
+
+  SweepInSim out;
+  const double control_dt = 1.0 / options.control_rate_hz;
+  const double frame_dt = 1.0 / robot.camera.rate_hz;
+  const double encoder_dt = 1.0 / robot.encoder_rate_hz;
+  double next_frame = 0, next_encoder = 0;
+  try {
+    while (simulation.time_s() < options.max_sim_s && !run.swept()) {
+      const double t = simulation.time_s();
+      if (t >= next_encoder) {
+        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
+                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution);
+        next_encoder += encoder_dt;
+      }
+      if (t >= next_frame) {
+        run.noteFrameArrived(t);
+        if (run.wantsFrame(t)) {
+          const cv::Mat image =
+
+              renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
+          ++out.frames_rendered;
+          run.addFrame(t, image, "sim@" + std::to_string(t));
+          if (options.trace) {
+            std::string xs;
+            for (const auto& d : run.lastFrame().frame.decisions)
+              xs += " " + std::to_string(d.params.x).substr(0, 4);
+            const camera::SweepDecision& d = run.lastFrame().decision;
+            std::fprintf(stderr, "t %.2f yaw %.3f boards[%s] -> %s | %s\n", t,
+                         simulation.pose().yaw_rad, xs.c_str(),
+                         d.turn() ? camera::name(d.direction) : d.reason.c_str(),
+                         run.controller().describe().c_str());
+          }
+        }
+        next_frame += frame_dt;
+      }
+      const WheelDuties d = run.update(t);
+      simulation.setDuty(d.left, d.right);
+      simulation.advance(control_dt);
+    }
+  } catch (const CalibrationError& e) {
+    out.failure = std::string(e.what()) + " [" + run.collector().coverage().summary() + "]";
+  }
+  simulation.setDuty(0, 0);
+  out.swept = run.swept();
+  out.sim_s = run.elapsedS();
+  out.views = static_cast<int>(run.collector().views().size());
+  out.sharp_views = static_cast<int>(run.sharpViews().size());
+  out.steps = run.controller().steps();
+  out.board = run.collector().board();
+  out.image_size = run.collector().imageSize();
+  out.sharp = run.sharpViews();
+  if (run.stage() != camera::SweepRunStage::kWaitForData) out.min_duty = run.minDuty();
+  if (out.swept) {
+    try {
+      out.result = run.calibrate();
+    } catch (const CalibrationError& e) {
+      out.calibration_failure = e.what();
+    }
+  }
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return out;
+}
+
+}  // namespace test
+}  // namespace autocal

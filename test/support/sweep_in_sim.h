@@ -1,0 +1,43 @@
+// The camera stage (camera::SweepRun) driven by the simulator's core directly, no ROS: the run's
+// duties go to the physics, encoders and frames come back at the robot's rates and on sim time,
+// and a frame is rendered only when the run wants one (a node would drop the others). Shared by
+// the accuracy tests and the sweep benchmark; the run never sees the truth, the caller compares.
+#pragma once
+
+#include <string>
+
+#include "autocal/camera/sweep_run.h"
+#include "autocal/sim/config.h"
+
+namespace autocal {
+namespace test {
+
+struct SweepInSimOptions {
+  double control_rate_hz = 100.0;  ///< how often the run is updated (a node's timer)
+  double max_sim_s = 400.0;        ///< give up (a bug, not a calibration failure)
+  uint64_t seed = 1;
+  int max_blur_samples = 8;
+  bool trace = false;  ///< one stderr line per processed frame (boards, decision, state)
+};
+
+struct SweepInSim {
+  bool swept = false;
+  std::string failure;  ///< the run's CalibrationError, if it failed
+  double sim_s = 0;     ///< simulated time from start to the end of the sweep
+  double wall_s = 0;
+  int frames_rendered = 0;
+  camera::CalibrationResult result;  ///< valid when swept and calibrated
+  std::string calibration_failure;   ///< calibrate() threw
+  int views = 0, sharp_views = 0, steps = 0;
+  camera::MinDutyResult min_duty;
+  camera::BoardSpec board;
+  cv::Size image_size;
+  std::vector<std::vector<cv::Point2f>> sharp;  ///< every sharp board seen (refined corners)
+};
+
+/// Runs the stage in `world` with `robot`; `run` is constructed by the caller (options, board).
+SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
+                         camera::SweepRun& run, const SweepInSimOptions& options);
+
+}  // namespace test
+}  // namespace autocal

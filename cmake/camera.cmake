@@ -8,7 +8,8 @@ target_sources(autocal_core PRIVATE
   src/core/camera/wheel_turn.cpp
   src/core/camera/sweep_controller.cpp
   src/core/camera/min_duty_probe.cpp
-  src/core/camera/sweep_run.cpp)
+  src/core/camera/sweep_run.cpp
+  src/core/camera/debug_image.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
@@ -59,3 +60,11 @@ if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sweep_run_in_sim SOURCES test/camera/test_sweep_run_in_sim.cpp
                      LIBS autocal_test_support autocal_core autocal_sim_core)
 endif()
+
+# The robot's camera stage: turns past its boards and calibrates (camera::SweepRun on ROS).
+add_executable(camera_calibration_node
+  src/nodes/camera_calibration/camera_calibration_node.cpp
+  src/nodes/camera_calibration/camera_calibration_node_main.cpp)
+target_link_libraries(camera_calibration_node autocal_ros)
+target_compile_options(camera_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(camera_calibration_node)

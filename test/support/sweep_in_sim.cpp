@@ -72,7 +72,7 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
   out.steps = run.controller().steps();
   out.board = run.collector().board();
   out.image_size = run.collector().imageSize();
-  out.sharp = run.sharpViews();
+  for (const camera::CalibrationView& v : run.sharpViews()) out.sharp.push_back(v.corners);
   if (run.stage() != camera::SweepRunStage::kWaitForData) out.min_duty = run.minDuty();
   if (out.swept) {
     try {

@@ -113,10 +113,13 @@ class SweepRun {
   const MinDutyProbe& probe() const { return probe_; }
   /// Minimum moving duty per wheel and direction (measured, or the configured one).
   MinDutyResult minDuty() const;
-  /// Corners of every sharp board seen (see keep_sharp_views).
-  const std::vector<std::vector<cv::Point2f>>& sharpViews() const { return sharp_views_; }
-  /// Kept frames by ViewCollector frame index (for the audit folder).
-  const std::map<int, cv::Mat>& keptFrames() const { return kept_frames_; }
+  /// Every sharp board seen (refined corners; see keep_sharp_views).
+  const std::vector<CalibrationView>& sharpViews() const { return sharp_views_; }
+  /// The views calibrate() fits (sharpViews() or the collector's kept views, by
+  /// calibrate_on_sharp_views): CalibrationResult::used_views indexes them.
+  const std::vector<CalibrationView>& calibrationViews() const;
+  /// Grey frames by CalibrationView::frame_index, for the audit folder.
+  const std::map<int, cv::Mat>& frames() const { return frames_; }
   const SweepFrameReport& lastFrame() const { return last_frame_; }
   /// Seconds since the stage started (0 before), steps made, frames processed.
   double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
@@ -160,8 +163,8 @@ class SweepRun {
   bool have_frame_ = false;
   double frame_arrival_s_ = 0;
   bool first_observation_ = true;
-  std::vector<std::vector<cv::Point2f>> sharp_views_;
-  std::map<int, cv::Mat> kept_frames_;
+  std::vector<CalibrationView> sharp_views_;
+  std::map<int, cv::Mat> frames_;
   SweepFrameReport last_frame_;
 };
 

@@ -132,22 +132,28 @@ bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string&
   if (!wantsFrame(stamp_s)) return false;
   const int frame_index = collector_.frames();
   FrameResult frame = collector_.addFrame(image, source);
-  if (frame.any_kept()) kept_frames_[frame_index] = image.clone();
-
   SweepObservation obs;
+  cv::Mat gray;
   for (const ViewDecision& d : frame.decisions) {
     obs.boards_x.push_back(std::min(1.0, std::max(0.0, d.params.x)));
-    const bool sharp = d.edge_width_px <= camera_.selection.max_edge_width_px;
-    if (options_.keep_sharp_views && sharp) {
-      if (d.kept) {
-        sharp_views_.push_back(d.corners);
-      } else if (static_cast<int>(d.corners.size()) == camera_.board.cornerCount()) {
-        BoardDetection b{d.corners};
-        refineCorners(toGray(image), camera_.board, b, camera_.detector);
-        sharp_views_.push_back(b.corners);
-      }
+    const bool sharp = d.edge_width_px <= camera_.selection.max_edge_width_px &&
+                       static_cast<int>(d.corners.size()) == camera_.board.cornerCount();
+    if (!(sharp && options_.keep_sharp_views)) continue;
+    if (gray.empty()) gray = toGray(image);
+    CalibrationView v;
+    v.corners = d.corners;  // refined when the collector kept the view
+    if (!d.kept) {
+      BoardDetection b{d.corners};
+      refineCorners(gray, camera_.board, b, camera_.detector);
+      v.corners = b.corners;
     }
+    v.params = d.params;
+    v.edge_width_px = d.edge_width_px;
+    v.source = source;
+    v.frame_index = frame_index;
+    sharp_views_.push_back(std::move(v));
   }
+  if (frame.any_kept() || !gray.empty()) frames_[frame_index] = gray.empty() ? toGray(image) : gray;
   obs.view_kept = frame.any_kept();
   obs.coverage_sufficient = collector_.coverage().sufficient;
   const double turned = headingChangeSinceObservation();
@@ -166,6 +172,11 @@ bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string&
   last_frame_.decision = controller_.decide(obs);
   pending_decision_ = true;
   return true;
+}
+
+const std::vector<CalibrationView>& SweepRun::calibrationViews() const {
+  return options_.calibrate_on_sharp_views && options_.keep_sharp_views ? sharp_views_
+                                                                        : collector_.views();
 }
 
 MinDutyResult SweepRun::minDuty() const {
@@ -273,11 +284,7 @@ WheelDuties SweepRun::update(double now_s) {
 CalibrationResult SweepRun::calibrate() const {
   if (!swept()) throw CalibrationError("calibrate() before the sweep ended");
   std::vector<std::vector<cv::Point2f>> corners;
-  if (options_.calibrate_on_sharp_views) {
-    corners = sharp_views_;
-  } else {
-    for (const CalibrationView& v : collector_.views()) corners.push_back(v.corners);
-  }
+  for (const CalibrationView& v : calibrationViews()) corners.push_back(v.corners);
   if (corners.empty())
     throw CalibrationError("no usable view of a " + camera_.board.describe() + " board in " +
                            std::to_string(collector_.frames()) + " frames");

@@ -91,11 +91,18 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   // it the logging and the publishers the failure path needs.
   ros::NodeHandle nh, pnh("~");
   StatusPublisher status(nh, options.status_topic);
+  // Advertised only to stop: a simulator that waits for a controller starts its clock when a
+  // wheels_cmd publisher appears, and the node advertises its own once its inputs are connected.
+  // In the same process both share one connection, so the stop reaches the same subscribers.
   WheelsCommander wheels;
-  if (options.commands_wheels) wheels = WheelsCommander(nh, options.wheels_topic);
+  auto stopWheels = [&] {
+    if (!options.commands_wheels) return;
+    if (!wheels.valid()) wheels = WheelsCommander(nh, options.wheels_topic);
+    wheels.stop();
+  };
 
   auto fail = [&](ExitCode code, const std::string& reason) {
-    if (wheels.valid()) wheels.stop();
+    stopWheels();
     status.failed(options.phase, reason);
     ROS_FATAL_STREAM(options.name << ": " << exitCodeMeaning(code) << ": " << reason);
     // Give the latched FAILED a moment to reach subscribers that are connecting now.
@@ -113,7 +120,7 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   if (interrupted()) {
     if (options.interrupt_is_failure)
       return fail(ExitCode::kInterrupted, "interrupted by a signal");
-    if (wheels.valid()) wheels.stop();
+    stopWheels();
   }
   ros::shutdown();
   return toInt(ExitCode::kOk);

@@ -14,6 +14,11 @@ std::string show(double v) { return formatNumber(v); }
 std::string show(int v) { return std::to_string(v); }
 std::string show(bool v) { return v ? "true" : "false"; }
 std::string show(const std::string& v) { return "'" + v + "'"; }
+std::string show(const std::vector<double>& v) {
+  std::string s = "[";
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + formatNumber(v[i]);
+  return s + "]";
+}
 
 }  // namespace
 
@@ -38,6 +43,10 @@ void ParamReader::read(const std::string& name, T& value, bool required) const {
   if constexpr (std::is_same_v<T, double>) {
     if (!std::isfinite(read_value)) throw ConfigError(key + ": must be a finite number");
   }
+  if constexpr (std::is_same_v<T, std::vector<double>>) {
+    for (double x : read_value)
+      if (!std::isfinite(x)) throw ConfigError(key + ": every element must be a finite number");
+  }
   value = read_value;
   ROS_INFO_STREAM(node_name_ << ": " << key << " = " << show(value));
 }
@@ -46,6 +55,9 @@ void ParamReader::get(const std::string& name, double& value) const { read(name,
 void ParamReader::get(const std::string& name, int& value) const { read(name, value, false); }
 void ParamReader::get(const std::string& name, bool& value) const { read(name, value, false); }
 void ParamReader::get(const std::string& name, std::string& value) const {
+  read(name, value, false);
+}
+void ParamReader::get(const std::string& name, std::vector<double>& value) const {
   read(name, value, false);
 }
 void ParamReader::require(const std::string& name, double& value) const { read(name, value, true); }

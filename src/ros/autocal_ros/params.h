@@ -6,6 +6,7 @@
 #include <ros/node_handle.h>
 
 #include <string>
+#include <vector>
 
 namespace autocal {
 namespace ros_layer {
@@ -20,6 +21,7 @@ class ParamReader {
   void get(const std::string& name, int& value) const;
   void get(const std::string& name, bool& value) const;
   void get(const std::string& name, std::string& value) const;
+  void get(const std::string& name, std::vector<double>& value) const;
 
   /// Reads ~name; throws ConfigError "~name: required parameter is missing" when it is not set.
   void require(const std::string& name, double& value) const;

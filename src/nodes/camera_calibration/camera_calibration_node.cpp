@@ -1,0 +1,388 @@
+#include "camera_calibration_node.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <ros/package.h>
+#include <sensor_msgs/SetCameraInfo.h>
+
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "autocal/camera/calibration_files.h"
+#include "autocal/camera/debug_image.h"
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/params.h"
+
+namespace autocal {
+namespace camera {
+
+namespace fs = std::filesystem;
+
+void CameraCalibrationNodeOptions::validate() const {
+  auto check = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) throw ConfigError("~" + key + ": " + what);
+  };
+  check(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
+  check(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
+  check(!calibration_root.empty(), "calibration_root", "must not be empty");
+  check(image_transport == "compressed" || image_transport == "raw", "image_transport",
+        "must be 'compressed' or 'raw', not '" + image_transport + "'");
+  check(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
+        "must be >= 10 Hz (pulses are 0.1 s)");
+  check(std::isfinite(camera_info_wait_s) && camera_info_wait_s >= 0, "camera_info_wait_s",
+        "must be >= 0");
+  check(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s", "must be >= 0");
+  check(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
+  check(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
+  try {
+    run.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string("~") + e.what());
+  }
+}
+
+namespace {
+
+std::string defaultVeh(const ros::NodeHandle& nh) {
+  std::string ns = nh.getNamespace();
+  while (!ns.empty() && ns.back() == '/') ns.pop_back();
+  const size_t slash = ns.rfind('/');
+  const std::string last = slash == std::string::npos ? ns : ns.substr(slash + 1);
+  return last.empty() ? "autobot" : last;
+}
+
+CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
+  const ros_layer::ParamReader p(pnh, "camera_calibration_node");
+  CameraCalibrationNodeOptions o;
+  o.veh = defaultVeh(nh);
+  p.get("veh", o.veh);
+  p.get("calibration_root", o.calibration_root);
+  o.camera_config = ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
+  p.get("camera_config", o.camera_config);
+  p.get("board_inner_corners", o.board_inner_corners);
+  p.get("board_square_m", o.board_square_m);
+  p.get("image_transport", o.image_transport);
+  p.get("control_rate_hz", o.control_rate_hz);
+  p.get("camera_info_wait_s", o.camera_info_wait_s);
+  p.get("connect_wait_s", o.connect_wait_s);
+  p.get("use_camera_info_guess", o.use_camera_info_guess);
+  p.get("set_camera_info", o.set_camera_info);
+  p.get("status_rate_hz", o.status_rate_hz);
+
+  SweepRunOptions& r = o.run;
+  p.get("probe_min_duty", r.probe_min_duty);
+  p.get("min_duty", r.min_duty);
+  p.get("probe_start_duty", r.probe.start_duty);
+  p.get("probe_duty_step", r.probe.duty_step);
+  p.get("probe_max_duty", r.probe.max_duty);
+  p.get("probe_min_ticks", r.probe.min_ticks);
+  p.get("target_step_rad", r.target_step_rad);
+  p.get("max_step_duty", r.max_step_duty);
+  p.get("nominal_wheel_radius_m", r.nominal_wheel_radius_m);
+  p.get("nominal_wheelbase_m", r.nominal_wheelbase_m);
+  p.get("still_s", r.still_s);
+  p.get("camera_timeout_s", r.camera_timeout_s);
+  p.get("encoder_timeout_s", r.encoder_timeout_s);
+  p.get("max_duration_s", r.max_duration_s);
+  p.get("min_views", r.min_views);
+  std::vector<double> goal(r.coverage_goal.begin(), r.coverage_goal.end());
+  p.get("coverage_goal", goal);
+  if (goal.size() != r.coverage_goal.size())
+    throw ConfigError("~coverage_goal: expected 6 spreads (x, y, size, skew, distance, tilt)");
+  std::copy(goal.begin(), goal.end(), r.coverage_goal.begin());
+  p.get("calibrate_on_sharp_views", r.calibrate_on_sharp_views);
+
+  SweepOptions& s = r.sweep;
+  p.get("board_count", s.board_count);
+  p.get("start_board", s.start_board);
+  std::string direction = name(s.initial_direction), pivot = name(s.pivot);
+  p.get("initial_direction", direction);
+  if (direction != "cw" && direction != "ccw")
+    throw ConfigError("~initial_direction: must be 'cw' or 'ccw', not '" + direction + "'");
+  s.initial_direction = direction == "cw" ? TurnDirection::kCw : TurnDirection::kCcw;
+  p.get("pivot", pivot);
+  try {
+    s.pivot = parsePivotConvention(pivot);
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string("~pivot: ") + e.what());
+  }
+  p.get("max_passes", s.max_passes);
+  p.get("camera_hfov_rad", s.camera_hfov_rad);
+  p.get("max_gap_rad", s.max_gap_rad);
+  p.get("full_turn_rad", s.full_turn_rad);
+  p.get("step_duration_s", s.step_duration_s);
+  p.get("step_duty_margin", s.step_duty_margin);
+  p.get("settle_s", s.settle_s);
+  p.get("max_settle_s", s.max_settle_s);
+  o.validate();
+  return o;
+}
+
+}  // namespace
+
+CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+  camera_ = loadCameraCalibrationConfig(options_.camera_config);
+  if (!options_.board_inner_corners.empty())
+    camera_.board.inner_corners = parseBoardSize(options_.board_inner_corners);
+  if (options_.board_square_m > 0) camera_.board.square_size_m = options_.board_square_m;
+  // The robot's boards are small in its image: the half-resolution precheck misses a third of
+  // them (BENCHMARKS.md), and a frame is only grabbed once per step.
+  camera_.detector.half_resolution_precheck = false;
+  camera_.validate();
+
+  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+  debug_pub_ = pnh_.advertise<sensor_msgs::CompressedImage>("debug/image/compressed", 1);
+  status_.running("camera/wait", 0, "waiting for the camera and the encoders");
+  info_sub_ =
+      nh_.subscribe("camera_node/camera_info", 1, &CameraCalibrationNode::onCameraInfo, this);
+  left_sub_ =
+      nh_.subscribe("left_wheel_encoder_node/tick", 50, &CameraCalibrationNode::onLeft, this);
+  right_sub_ =
+      nh_.subscribe("right_wheel_encoder_node/tick", 50, &CameraCalibrationNode::onRight, this);
+  if (options_.image_transport == "compressed") {
+    image_sub_ = nh_.subscribe("camera_node/image/compressed", 2,
+                               &CameraCalibrationNode::onCompressed, this);
+  } else {
+    image_sub_ = nh_.subscribe("camera_node/image/raw", 2, &CameraCalibrationNode::onRaw, this);
+  }
+}
+
+void CameraCalibrationNode::connect() {
+  // The wheels are advertised last: a simulator started with wait_for_controller holds its clock
+  // until a wheels_cmd publisher appears, and every input must be connected by then. Wall time:
+  // a held clock does not move. Inputs that never connect are caught by the timeouts later.
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
+  while (ros_layer::ok() && ros::WallTime::now() < end &&
+         (image_sub_.getNumPublishers() == 0 || left_sub_.getNumPublishers() == 0 ||
+          right_sub_.getNumPublishers() == 0 || info_sub_.getNumPublishers() == 0)) {
+    ros::WallDuration(0.01).sleep();
+  }
+  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+}
+
+template <typename F>
+void CameraCalibrationNode::guarded(F&& f) {
+  if (error_) return;
+  try {
+    f();
+  } catch (...) {
+    error_ = std::current_exception();
+  }
+}
+
+void CameraCalibrationNode::onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg) {
+  guarded([&] {
+    if (have_info_) return;
+    info_ = *msg;
+    have_info_ = true;
+  });
+}
+
+void CameraCalibrationNode::onLeft(const dtmsg::WheelEncoderStamped::ConstPtr& msg) {
+  guarded([&] {
+    const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
+    left_ticks_ = r.ticks;
+    resolution_ = r.ticks_per_revolution;
+    have_left_ = true;
+    feedEncoders(msg->header.stamp);
+  });
+}
+
+void CameraCalibrationNode::onRight(const dtmsg::WheelEncoderStamped::ConstPtr& msg) {
+  guarded([&] {
+    const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
+    right_ticks_ = r.ticks;
+    resolution_ = r.ticks_per_revolution;
+    have_right_ = true;
+    feedEncoders(msg->header.stamp);
+  });
+}
+
+void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
+  if (run_ && have_left_ && have_right_)
+    run_->addEncoders(stamp.toSec(), left_ticks_, right_ticks_, resolution_);
+}
+
+void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
+  guarded([&] {
+    if (!run_) return;
+    run_->noteFrameArrived(ros::Time::now().toSec());
+    // Decode only the frame the stage wants (one per step): the others cost nothing.
+    if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
+    cv::Mat image;
+    if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
+    if (image.empty()) {
+      ++frames_dropped_;
+      ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped an undecodable frame (%d so far)",
+                        frames_dropped_);
+      return;
+    }
+    onFrame(msg->header.stamp, image, "compressed@" + formatNumber(msg->header.stamp.toSec(), 6));
+  });
+}
+
+void CameraCalibrationNode::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
+  guarded([&] {
+    if (!run_) return;
+    run_->noteFrameArrived(ros::Time::now().toSec());
+    if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
+    cv::Mat image;
+    try {
+      image = cv_bridge::toCvCopy(msg, "mono8")->image;
+    } catch (const cv_bridge::Exception& e) {
+      ++frames_dropped_;
+      ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped a frame: %s (%d so far)", e.what(),
+                        frames_dropped_);
+      return;
+    }
+    onFrame(msg->header.stamp, image, "raw@" + formatNumber(msg->header.stamp.toSec(), 6));
+  });
+}
+
+void CameraCalibrationNode::onFrame(const ros::Time& stamp, const cv::Mat& image,
+                                    const std::string& source) {
+  if (first_size_.area() == 0) first_size_ = image.size();
+  const bool info_size_differs = have_info_ && (static_cast<int>(info_.width) != image.cols ||
+                                                static_cast<int>(info_.height) != image.rows);
+  if (image.size() != first_size_ || info_size_differs) {
+    ++frames_dropped_;
+    ROS_WARN_THROTTLE(5,
+                      "camera_calibration_node: dropped a %dx%d frame (camera_info or the first "
+                      "frame says %dx%d; %d dropped so far)",
+                      image.cols, image.rows, have_info_ ? info_.width : first_size_.width,
+                      have_info_ ? info_.height : first_size_.height, frames_dropped_);
+    return;
+  }
+  run_->addFrame(stamp.toSec(), image, source);
+  publishDebug(image);
+}
+
+void CameraCalibrationNode::publishDebug(const cv::Mat& frame) {
+  if (debug_pub_.getNumSubscribers() == 0) return;
+  const SweepFrameReport& last = run_->lastFrame();
+  const cv::Mat img = drawSweepDebugImage(frame, last.frame, run_->collector().coverage(),
+                                          camera_.selection.max_edge_width_px, run_->describe());
+  sensor_msgs::CompressedImage msg;
+  msg.header.stamp = ros_layer::toRosTime(last.stamp_s);
+  msg.format = "jpeg";
+  cv::imencode(".jpg", img, msg.data, {cv::IMWRITE_JPEG_QUALITY, 80});
+  debug_pub_.publish(msg);
+}
+
+void CameraCalibrationNode::waitForCameraInfo() {
+  const ros::Time start = ros::Time::now();
+  ros::Rate rate(options_.control_rate_hz);
+  while (ros_layer::ok() && !have_info_ &&
+         (ros::Time::now() - start).toSec() < options_.camera_info_wait_s) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    rate.sleep();
+  }
+  CameraCalibrationConfig camera = camera_;
+  SweepRunOptions run = options_.run;
+  if (have_info_) {
+    const CameraIntrinsics nominal = ros_layer::fromCameraInfo(info_);
+    if (options_.use_camera_info_guess)
+      camera.calibration.initial_camera_matrix = nominal.cameraMatrix();
+    run.sweep.camera_hfov_rad = 2 * std::atan(nominal.width / (2 * nominal.fx));
+    ROS_INFO("camera_calibration_node: camera_info: %dx%d, fx %.1f: field of view %.2f rad%s",
+             nominal.width, nominal.height, nominal.fx, run.sweep.camera_hfov_rad,
+             options_.use_camera_info_guess ? ", the fit starts from it" : "");
+  } else {
+    ROS_WARN(
+        "camera_calibration_node: no camera_info in %.1f s: field of view %.2f rad "
+        "(~camera_hfov_rad), the fit starts from OpenCV's own guess",
+        options_.camera_info_wait_s, run.sweep.camera_hfov_rad);
+  }
+  run_ = std::make_unique<SweepRun>(run, camera);
+  feedEncoders(ros::Time::now());
+}
+
+void CameraCalibrationNode::publishStatus(bool force) {
+  const std::string phase = std::string("camera/") + name(run_->stage());
+  const ros::Time now = ros::Time::now();
+  if (!force && phase == last_phase_ &&
+      (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
+    return;
+  if (phase != last_phase_) ROS_INFO("camera_calibration_node: %s", phase.c_str());
+  last_phase_ = phase;
+  last_status_ = now;
+  const Coverage c = run_->collector().coverage();
+  status_.running(phase, run_->progress(), run_->describe(),
+                  {{"views", c.views},
+                   {"sharp_views", static_cast<double>(run_->sharpViews().size())},
+                   {"frames", run_->framesProcessed()},
+                   {"frames_dropped", frames_dropped_},
+                   {"steps", run_->controller().steps()},
+                   {"elapsed_s", run_->elapsedS()}});
+}
+
+void CameraCalibrationNode::run() {
+  connect();
+  waitForCameraInfo();
+  ros::Rate rate(options_.control_rate_hz);
+  while (ros_layer::ok() && !run_->swept()) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    const WheelDuties duties = run_->update(ros::Time::now().toSec());
+    wheels_.command(duties.left, duties.right);
+    publishStatus(false);
+    rate.sleep();
+  }
+  if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
+  wheels_.stop();
+  finish();
+}
+
+void CameraCalibrationNode::finish() {
+  status_.running("camera/calibrate", 0.95, run_->describe());
+  const CalibrationResult result = run_->calibrate();  // throws when the gate refuses it
+  const CameraIntrinsics& in = result.intrinsics;
+  const std::string path =
+      (fs::path(options_.calibration_root) / "camera_intrinsic" / (options_.veh + ".yaml"))
+          .string();
+  std::error_code ec;
+  fs::create_directories(fs::path(path).parent_path(), ec);
+  if (ec) throw IoError(fs::path(path).parent_path().string() + ": cannot create: " + ec.message());
+  writeCameraCalibration(path, ros_layer::cameraInfoYaml(in, options_.veh), camera_.board, result,
+                         run_->calibrationViews(), run_->frames());
+  ROS_INFO(
+      "camera_calibration_node: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, RMS %.3f "
+      "px over %zu views (%s), sweep %.1f s",
+      path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
+      result.used_views.size(), result.fitted_terms.c_str(), run_->elapsedS());
+  if (options_.set_camera_info) {
+    ros::ServiceClient client =
+        nh_.serviceClient<sensor_msgs::SetCameraInfo>("camera_node/set_camera_info");
+    sensor_msgs::SetCameraInfo srv;
+    srv.request.camera_info = ros_layer::toCameraInfo(in);
+    if (!client.waitForExistence(ros::Duration(2.0)) || !client.call(srv) ||
+        !srv.response.success) {
+      // The file is written: the camera node reads it at its next start.
+      ROS_WARN("camera_calibration_node: camera_node/set_camera_info failed (%s); %s is written",
+               srv.response.status_message.c_str(), path.c_str());
+    }
+  }
+  const MinDutyResult d = run_->minDuty();
+  status_.done("camera/write", "wrote " + path,
+               {{"fx", in.fx},
+                {"fy", in.fy},
+                {"cx", in.cx},
+                {"cy", in.cy},
+                {"k1", in.distortion_coefficients[0]},
+                {"k2", in.distortion_coefficients[1]},
+                {"rms_px", result.rms_px},
+                {"views", static_cast<double>(result.used_views.size())},
+                {"sweep_s", run_->elapsedS()},
+                {"frames_dropped", frames_dropped_},
+                {"min_duty_left_forward", d.left_forward},
+                {"min_duty_left_backward", d.left_backward},
+                {"min_duty_right_forward", d.right_forward},
+                {"min_duty_right_backward", d.right_backward}});
+}
+
+}  // namespace camera
+}  // namespace autocal

@@ -1,0 +1,99 @@
+// camera_calibration_node — the robot calibrates its camera by itself (paper 000 §3.1–3.2): it
+// finds its wheels' minimum moving duty, turns one wheel at a time in steps past the chessboards
+// around it, grabs one settled frame per step, and calibrates the views (camera::SweepRun does all
+// of it; this class only wires ROS to it). README "Camera calibration node" lists the parameters.
+//
+// Subscribes (relative to the robot's namespace): camera_node/image/compressed (or image/raw with
+// ~image_transport raw), camera_node/camera_info (image size and the fit's starting point only),
+// left_wheel_encoder_node/tick, right_wheel_encoder_node/tick. Publishes
+// wheels_driver_node/wheels_cmd, calibration/status (phase camera/<step>), and
+// ~debug/image/compressed. On success writes <calibration_root>/camera_intrinsic/<veh>.yaml and
+// its audit folder, optionally calls camera_node/set_camera_info, publishes DONE whose text is
+// "wrote <path>", and returns; every failure is an exception for runNode's failure path.
+#pragma once
+
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
+
+#include <exception>
+#include <memory>
+#include <string>
+
+#include "autocal/camera/camera_config.h"
+#include "autocal/camera/sweep_run.h"
+#include "autocal_ros/msgs.h"
+#include "autocal_ros/node_runtime.h"
+
+namespace autocal {
+namespace camera {
+
+struct CameraCalibrationNodeOptions {
+  std::string veh;  ///< default: the last component of the node's namespace
+  std::string calibration_root = "/data/config/calibrations";
+  std::string camera_config;        ///< default: the package's config/camera_calibration.yaml
+  std::string board_inner_corners;  ///< e.g. "7x5"; empty: the config's
+  double board_square_m = 0;        ///< 0: the config's
+  std::string image_transport = "compressed";  ///< "compressed" or "raw"
+  double control_rate_hz = 50;
+  /// Wait this long at the start for camera_info [s]; without it the fit starts from OpenCV's
+  /// own guess and the sweep from ~camera_hfov_rad.
+  double camera_info_wait_s = 3.0;
+  bool use_camera_info_guess = true;
+  /// Wait up to this long [wall s] for the camera, camera_info and encoder publishers before the
+  /// wheels are advertised (see connect()).
+  double connect_wait_s = 5.0;
+  bool set_camera_info = false;  ///< call camera_node/set_camera_info with the result
+  double status_rate_hz = 2.0;
+  SweepRunOptions run;
+
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+class CameraCalibrationNode {
+ public:
+  /// Reads and validates the parameters; throws ConfigError.
+  CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  /// Runs the stage to its end; returns after DONE, throws on failure.
+  void run();
+
+ private:
+  void onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg);
+  void onRaw(const sensor_msgs::Image::ConstPtr& msg);
+  void onFrame(const ros::Time& stamp, const cv::Mat& image, const std::string& source);
+  void onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg);
+  void onLeft(const dtmsg::WheelEncoderStamped::ConstPtr& msg);
+  void onRight(const dtmsg::WheelEncoderStamped::ConstPtr& msg);
+  void feedEncoders(const ros::Time& stamp);
+  /// Callbacks keep their exception for run() to rethrow (one failure path).
+  template <typename F>
+  void guarded(F&& f);
+  void connect();
+  void waitForCameraInfo();
+  void publishStatus(bool force);
+  void publishDebug(const cv::Mat& frame);
+  void finish();
+
+  ros::NodeHandle nh_, pnh_;
+  CameraCalibrationNodeOptions options_;
+  CameraCalibrationConfig camera_;
+  std::unique_ptr<SweepRun> run_;
+  ros_layer::StatusPublisher status_;
+  ros_layer::WheelsCommander wheels_;
+  ros::Publisher debug_pub_;
+  ros::Subscriber image_sub_, info_sub_, left_sub_, right_sub_;
+  bool have_info_ = false;
+  sensor_msgs::CameraInfo info_;
+  bool have_left_ = false, have_right_ = false;
+  int left_ticks_ = 0, right_ticks_ = 0, resolution_ = 0;
+  int frames_dropped_ = 0;
+  cv::Size first_size_;
+  std::exception_ptr error_;
+  ros::Time last_status_;
+  std::string last_phase_;
+};
+
+}  // namespace camera
+}  // namespace autocal

@@ -68,3 +68,31 @@ add_executable(camera_calibration_node
 target_link_libraries(camera_calibration_node autocal_ros)
 target_compile_options(camera_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(camera_calibration_node)
+
+if(CATKIN_ENABLE_TESTING)
+  # The node end to end in the simulator (camera_node.test; arguments choose robot, world, outcome).
+  add_executable(test_camera_node EXCLUDE_FROM_ALL test/camera/test_camera_node.cpp)
+  target_link_libraries(test_camera_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_camera_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_camera_node)
+  add_dependencies(tests test_camera_node)
+  set(_cam_deps test_camera_node camera_calibration_node sim_node)
+  add_rostest(test/camera/camera_node.test DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=wide
+    robot_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/fleet/robot_wide.yaml DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=narrow
+    robot_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/fleet/robot_narrow.yaml DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=p95
+    robot_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/fleet/robot_p95.yaml
+    world_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/world_boards_b.yaml board:=8x6 square_m:=0.025
+    DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=noboards
+    world_config:=${CMAKE_CURRENT_SOURCE_DIR}/test/camera/world_no_boards.yaml
+    expect:=failed failure_contains:=no_board_seen_in_a_full_turn DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=nocamera camera_enabled:=false
+    expect:=failed failure_contains:=no_camera_frame DEPENDENCIES ${_cam_deps})
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_sweep_run SOURCES test/camera/test_sweep_run.cpp LIBS autocal_core)
+endif()

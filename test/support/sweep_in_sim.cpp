@@ -33,7 +33,7 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
       const double t = simulation.time_s();
       if (t >= next_encoder) {
         run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
-                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution);
+                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution, t);
         next_encoder += encoder_dt;
       }
       if (t >= next_frame) {

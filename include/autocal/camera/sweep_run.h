@@ -87,8 +87,10 @@ class SweepRun {
   SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig& camera);
 
   /// Cumulative encoder ticks of both wheels (each may come in its own message: pass the latest of
-  /// the other). `stamp_s` orders the readings; a reading older than the last is ignored.
-  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution);
+  /// the other), received at `now_s` (for the encoder timeout). `stamp_s` orders the readings; a
+  /// reading older than the last is ignored.
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
+                   double now_s);
   /// A frame is wanted only while the robot stands settled after a step (and once at the start):
   /// check before decoding one.
   bool wantsFrame(double stamp_s) const;

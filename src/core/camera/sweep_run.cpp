@@ -83,7 +83,7 @@ SweepRun::SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig
 }
 
 void SweepRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
-                           int ticks_per_revolution) {
+                           int ticks_per_revolution, double now_s) {
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution " + std::to_string(ticks_per_revolution) +
                      ": must be > 0 ticks per revolution");
@@ -95,7 +95,7 @@ void SweepRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
   }
   have_encoders_ = true;
   encoder_stamp_s_ = stamp_s;
-  encoder_arrival_s_ = std::max(encoder_arrival_s_, last_now_s_);
+  encoder_arrival_s_ = std::max(encoder_arrival_s_, now_s);
   left_ = left_ticks;
   right_ = right_ticks;
   ticks_per_rev_ = ticks_per_revolution;

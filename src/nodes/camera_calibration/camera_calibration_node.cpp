@@ -203,7 +203,8 @@ void CameraCalibrationNode::onRight(const dtmsg::WheelEncoderStamped::ConstPtr& 
 
 void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
   if (run_ && have_left_ && have_right_)
-    run_->addEncoders(stamp.toSec(), left_ticks_, right_ticks_, resolution_);
+    run_->addEncoders(stamp.toSec(), left_ticks_, right_ticks_, resolution_,
+                      ros::Time::now().toSec());
 }
 
 void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {

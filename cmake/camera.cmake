@@ -96,3 +96,12 @@ endif()
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sweep_run SOURCES test/camera/test_sweep_run.cpp LIBS autocal_core)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # make bench: the camera stage over the fleet's configs (scripts/bench/camera_sweep.sh).
+  add_executable(camera_sweep_bench bench/camera_sweep_bench.cpp)
+  target_link_libraries(camera_sweep_bench autocal_test_support autocal_core autocal_sim_core)
+  target_compile_definitions(camera_sweep_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+  target_compile_options(camera_sweep_bench PRIVATE ${AUTOCAL_WARNINGS})
+  set_target_properties(camera_sweep_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
+endif()

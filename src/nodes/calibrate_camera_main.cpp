@@ -41,13 +41,15 @@ const char* kUsage =
     "usage: calibrate_camera (--images 'GLOB' | --bag FILE --topic TOPIC) --out FILE.yaml\n"
     "                        [--board 9x6] [--square 0.025] [--model "
     "plumb_bob|rational_polynomial|equidistant]\n"
-    "                        [--config FILE] [--camera-name NAME] [--min-novelty X] [--holdout]\n";
+    "                        [--config FILE] [--camera-name NAME] [--min-novelty X] [--holdout]\n"
+    "                        [--novel-only]\n";
 
 struct Args {
   std::string images, bag, topic, out, config, model, camera_name = "camera", board;
   double square_m = 0;
   double min_novelty = -1;
   bool holdout = false;
+  bool novel_only = false;  ///< calibrate on the novel views only (not every sharp one)
 };
 
 Args parseArgs(int argc, char** argv) {
@@ -60,6 +62,10 @@ Args parseArgs(int argc, char** argv) {
     }
     if (k == "--holdout") {
       a.holdout = true;
+      continue;
+    }
+    if (k == "--novel-only") {
+      a.novel_only = true;
       continue;
     }
     if (i + 1 >= argc) throw UsageError(k + " needs a value");
@@ -189,6 +195,7 @@ int run(const Args& args) {
   const BoardSpec& board = config.board;
   if (!args.model.empty()) config.calibration.model = parseDistortionModel(args.model);
   if (args.min_novelty >= 0) config.selection.min_novelty = args.min_novelty;
+  if (args.novel_only) config.selection.keep_sharp_views = false;
   config.validate();
 
   ViewCollector collector(board, config.detector, config.selection);
@@ -197,8 +204,9 @@ int run(const Args& args) {
   int frames_without_board = 0;
   auto sink = [&](const cv::Mat& img, const std::string& name, size_t i, size_t total) {
     const int frame_index = collector.frames();
+    const size_t fit_views_before = collector.calibrationViews().size();
     const FrameResult r = collector.addFrame(img, name);
-    if (r.any_kept()) kept_frames[frame_index] = img;
+    if (collector.calibrationViews().size() > fit_views_before) kept_frames[frame_index] = img;
     std::string what;
     if (r.boards_found == 0) {
       ++frames_without_board;
@@ -208,11 +216,13 @@ int run(const Args& args) {
     for (size_t b = 0; b < r.decisions.size(); ++b) {
       const ViewDecision& d = r.decisions[b];
       const std::string label = r.decisions.size() > 1 ? " board " + std::to_string(b) : "";
-      if (!d.kept) refused.push_back(name + label + ": " + d.reason);
+      const bool fitted = d.kept || (d.sharp && config.selection.keep_sharp_views);
+      if (!fitted) refused.push_back(name + label + ": " + d.reason);
       char edge[48];
       std::snprintf(edge, sizeof edge, " (edge width %.1f px)", d.edge_width_px);
       what += (what.empty() ? "" : "; ") + label.substr(label.empty() ? 0 : 1) +
-              (label.empty() ? "" : " ") + d.reason + (d.kept ? edge : "");
+              (label.empty() ? "" : " ") + d.reason +
+              (!d.kept && fitted ? " (sharp: used by the fit)" : "") + (fitted ? edge : "");
     }
     if (r.any_kept()) what += "; coverage " + collector.coverage().summary();
     // Every image of a folder, and about every 2 % of a bag, gets a progress line.
@@ -231,7 +241,8 @@ int run(const Args& args) {
   }
   const Coverage coverage = collector.coverage();
   std::printf("coverage: %s\n", coverage.summary().c_str());
-  const std::vector<CalibrationView>& views = collector.views();
+  // Every sharp board (view_selection.keep_sharp_views), or only the novel ones.
+  const std::vector<CalibrationView>& views = collector.calibrationViews();
   if (views.empty()) {
     throw CalibrationError("no usable view of a " + board.describe() + " board in " +
                            std::to_string(collector.frames()) +
@@ -262,8 +273,9 @@ int run(const Args& args) {
   for (size_t i = 0; i < in.distortion_coefficients.size(); ++i)
     std::printf(" %.6f", in.distortion_coefficients[i]);
   std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);
-  std::printf("views used: %zu of %zu kept views (%d frames)\n", result.used_views.size(),
-              views.size(), collector.frames());
+  std::printf("views used: %zu of %zu %s (%zu novel; %d frames)\n", result.used_views.size(),
+              views.size(), config.selection.keep_sharp_views ? "sharp views" : "novel views",
+              collector.views().size(), collector.frames());
   for (size_t u = 0; u < result.used_views.size(); ++u) {
     std::printf("  used %s: RMS %.3f px\n",
                 views[static_cast<size_t>(result.used_views[u])].source.c_str(),

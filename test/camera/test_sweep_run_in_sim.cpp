@@ -60,6 +60,13 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
   EXPECT_NEAR(e.distortion_coefficients[0], t.distortion_coefficients[0], 0.02);
   EXPECT_LE(r.sim_s, 90.0);
 
+  // Held-out error: each view's reprojection with intrinsics fitted on all the others.
+  const camera::HoldoutEvaluation holdout = camera::leaveOneOut(
+      r.sharp, r.image_size, r.board, r.calibration_options, camera::HoldoutMethod::kAutocal);
+  std::cout << "held-out RMS " << holdout.mean_rms_px << " px over " << r.sharp.size()
+            << " folds, fx spread " << holdout.fx_spread_px << " px\n";
+  EXPECT_LE(holdout.mean_rms_px, 0.3);
+
   // The pipeline's choices (view selection, outliers, the distortion terms) keep what the views
   // know: plain cv::calibrateCamera (k1 k2 p1 p2 k3) on every sharp board the sweep saw lands no
   // closer to the truth, neither from OpenCV's own start nor from the same nominal start.

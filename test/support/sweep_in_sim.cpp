@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <random>
 
 #include "autocal/errors.h"
@@ -43,7 +44,11 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
 
               renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
           ++out.frames_rendered;
+          timespec c0, c1;
+          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
           run.addFrame(t, image, "sim@" + std::to_string(t));
+          clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+          out.frame_ms.push_back((c1.tv_sec - c0.tv_sec) * 1e3 + (c1.tv_nsec - c0.tv_nsec) * 1e-6);
           if (options.trace) {
             std::string xs;
             for (const auto& d : run.lastFrame().frame.decisions)
@@ -71,6 +76,7 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
   out.sharp_views = static_cast<int>(run.sharpViews().size());
   out.steps = run.controller().steps();
   out.board = run.collector().board();
+  out.calibration_options = run.cameraConfig().calibration;
   out.image_size = run.collector().imageSize();
   for (const camera::CalibrationView& v : run.sharpViews()) out.sharp.push_back(v.corners);
   if (run.stage() != camera::SweepRunStage::kWaitForData) out.min_duty = run.minDuty();

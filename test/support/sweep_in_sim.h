@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "autocal/camera/sweep_run.h"
 #include "autocal/sim/config.h"
@@ -26,11 +27,13 @@ struct SweepInSim {
   double sim_s = 0;     ///< simulated time from start to the end of the sweep
   double wall_s = 0;
   int frames_rendered = 0;
+  std::vector<double> frame_ms;      ///< thread CPU time of SweepRun::addFrame per processed frame
   camera::CalibrationResult result;  ///< valid when swept and calibrated
   std::string calibration_failure;   ///< calibrate() threw
   int views = 0, sharp_views = 0, steps = 0;
   camera::MinDutyResult min_duty;
   camera::BoardSpec board;
+  camera::CalibrationOptions calibration_options;  ///< what the run calibrated with
   cv::Size image_size;
   std::vector<std::vector<cv::Point2f>> sharp;  ///< every sharp board seen (refined corners)
 };

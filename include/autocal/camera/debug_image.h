@@ -13,8 +13,7 @@ namespace camera {
 
 /// A BGR copy of `frame` (grey or BGR) with the boards of `result`, the coverage bars and `text`.
 cv::Mat drawSweepDebugImage(const cv::Mat& frame, const FrameResult& result,
-                            const Coverage& coverage, double max_edge_width_px,
-                            const std::string& text);
+                            const Coverage& coverage, const std::string& text);
 
 }  // namespace camera
 }  // namespace autocal

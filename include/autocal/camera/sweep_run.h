@@ -59,12 +59,10 @@ struct SweepRunOptions {
   std::array<double, 6> coverage_goal{{0.6, 0.05, 0.08, 0.2, 0.1, 0.25}};
   /// Views the sweep must keep before its coverage counts (with coverage_goal).
   int min_views = 15;
-  /// Keep (refined) corners of every sharp board seen, for comparing with a plain OpenCV fit on
-  /// all of them (audit, benchmarks); costs a sub-pixel refinement per board.
-  bool keep_sharp_views = true;
-  /// Calibrate on every sharp board seen (needs keep_sharp_views) instead of only the views the
-  /// collector kept for their novelty. Novelty decides when the sweep has seen enough; the fit
-  /// gains from every sharp view (a robot that stops for each frame sees 30–50 at no cost).
+  /// Calibrate on every sharp board seen instead of only the views the collector kept for their
+  /// novelty (ViewSelectionOptions::keep_sharp_views). Novelty decides when the sweep has seen
+  /// enough; the fit gains from every sharp view (a robot that stops for each frame sees 30–50 at
+  /// no cost).
   bool calibrate_on_sharp_views = true;
 
   /// Throws ConfigError naming the first bad key.
@@ -111,12 +109,14 @@ class SweepRun {
   CalibrationResult calibrate() const;
 
   const SweepController& controller() const { return controller_; }
+  /// The camera config in use (the sweep's coverage goal and views count applied).
+  const CameraCalibrationConfig& cameraConfig() const { return camera_; }
   const ViewCollector& collector() const { return collector_; }
   const MinDutyProbe& probe() const { return probe_; }
   /// Minimum moving duty per wheel and direction (measured, or the configured one).
   MinDutyResult minDuty() const;
-  /// Every sharp board seen (refined corners; see keep_sharp_views).
-  const std::vector<CalibrationView>& sharpViews() const { return sharp_views_; }
+  /// Every sharp board seen (refined corners; empty unless calibrate_on_sharp_views).
+  const std::vector<CalibrationView>& sharpViews() const { return collector_.sharpViews(); }
   /// The views calibrate() fits (sharpViews() or the collector's kept views, by
   /// calibrate_on_sharp_views): CalibrationResult::used_views indexes them.
   const std::vector<CalibrationView>& calibrationViews() const;
@@ -165,7 +165,6 @@ class SweepRun {
   bool have_frame_ = false;
   double frame_arrival_s_ = 0;
   bool first_observation_ = true;
-  std::vector<CalibrationView> sharp_views_;
   std::map<int, cv::Mat> frames_;
   SweepFrameReport last_frame_;
 };

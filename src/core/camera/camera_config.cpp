@@ -92,6 +92,7 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.selection.nominal_focal_width_ratio = s.required<double>("nominal_focal_width_ratio");
     c.selection.max_distance_m = s.required<double>("max_distance_m");
     c.selection.max_edge_width_px = s.required<double>("max_edge_width_px");
+    c.selection.keep_sharp_views = s.required<bool>("keep_sharp_views");
     s.finish();
   }
   {

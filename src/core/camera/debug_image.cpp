@@ -6,8 +6,7 @@ namespace autocal {
 namespace camera {
 
 cv::Mat drawSweepDebugImage(const cv::Mat& frame, const FrameResult& result,
-                            const Coverage& coverage, double max_edge_width_px,
-                            const std::string& text) {
+                            const Coverage& coverage, const std::string& text) {
   cv::Mat out;
   if (frame.channels() == 1) {
     cv::cvtColor(frame, out, cv::COLOR_GRAY2BGR);
@@ -15,10 +14,9 @@ cv::Mat drawSweepDebugImage(const cv::Mat& frame, const FrameResult& result,
     out = frame.clone();
   }
   for (const ViewDecision& d : result.decisions) {
-    const bool sharp = d.edge_width_px <= max_edge_width_px;
-    const cv::Scalar colour = d.kept  ? cv::Scalar(0, 200, 0)
-                              : sharp ? cv::Scalar(0, 200, 255)
-                                      : cv::Scalar(0, 0, 255);
+    const cv::Scalar colour = d.kept    ? cv::Scalar(0, 200, 0)
+                              : d.sharp ? cv::Scalar(0, 200, 255)
+                                        : cv::Scalar(0, 0, 255);
     for (const cv::Point2f& p : d.corners) cv::circle(out, p, 3, colour, 1, cv::LINE_AA);
   }
   // Coverage: one bar per view parameter, full when its spread reaches the goal.

@@ -67,6 +67,7 @@ CameraCalibrationConfig forSweep(CameraCalibrationConfig c, const SweepRunOption
     if (o.coverage_goal[i] >= 0) c.selection.goal_spread[i] = o.coverage_goal[i];
   }
   c.selection.min_views = o.min_views;
+  c.selection.keep_sharp_views = o.calibrate_on_sharp_views;
   c.validate();
   return c;
 }
@@ -131,29 +132,13 @@ double SweepRun::headingChangeSinceObservation() {
 bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {
   if (!wantsFrame(stamp_s)) return false;
   const int frame_index = collector_.frames();
+  const size_t sharp_before = collector_.sharpViews().size();
   FrameResult frame = collector_.addFrame(image, source);
   SweepObservation obs;
-  cv::Mat gray;
-  for (const ViewDecision& d : frame.decisions) {
+  for (const ViewDecision& d : frame.decisions)
     obs.boards_x.push_back(std::min(1.0, std::max(0.0, d.params.x)));
-    const bool sharp = d.edge_width_px <= camera_.selection.max_edge_width_px &&
-                       static_cast<int>(d.corners.size()) == camera_.board.cornerCount();
-    if (!(sharp && options_.keep_sharp_views)) continue;
-    if (gray.empty()) gray = toGray(image);
-    CalibrationView v;
-    v.corners = d.corners;  // refined when the collector kept the view
-    if (!d.kept) {
-      BoardDetection b{d.corners};
-      refineCorners(gray, camera_.board, b, camera_.detector);
-      v.corners = b.corners;
-    }
-    v.params = d.params;
-    v.edge_width_px = d.edge_width_px;
-    v.source = source;
-    v.frame_index = frame_index;
-    sharp_views_.push_back(std::move(v));
-  }
-  if (frame.any_kept() || !gray.empty()) frames_[frame_index] = gray.empty() ? toGray(image) : gray;
+  const bool sharp_seen = collector_.sharpViews().size() > sharp_before;
+  if (frame.any_kept() || sharp_seen) frames_[frame_index] = toGray(image);
   obs.view_kept = frame.any_kept();
   obs.coverage_sufficient = collector_.coverage().sufficient;
   const double turned = headingChangeSinceObservation();
@@ -175,8 +160,7 @@ bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string&
 }
 
 const std::vector<CalibrationView>& SweepRun::calibrationViews() const {
-  return options_.calibrate_on_sharp_views && options_.keep_sharp_views ? sharp_views_
-                                                                        : collector_.views();
+  return collector_.calibrationViews();
 }
 
 MinDutyResult SweepRun::minDuty() const {

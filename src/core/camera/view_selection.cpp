@@ -100,7 +100,9 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
   for (BoardDetection& board : boards) {
     // Cheap judgement first; the slow sub-pixel refinement only for views that are kept.
     ViewDecision d = judge(board.corners, edgeWidthPx(gray, board.corners));
-    if (d.kept) {
+    const bool sharp = usableAndSharp(board.corners, d.edge_width_px);
+    d.sharp = sharp;
+    if (d.kept || (sharp && selection_.keep_sharp_views)) {
       refineCorners(gray, board_, board, detector_);
       d.corners = board.corners;
       CalibrationView v;
@@ -109,7 +111,8 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
       v.edge_width_px = d.edge_width_px;
       v.source = source;
       v.frame_index = frame_index;
-      views_.push_back(v);
+      if (d.kept) views_.push_back(v);
+      if (selection_.keep_sharp_views) sharp_views_.push_back(std::move(v));
     }
     result.decisions.push_back(d);
   }
@@ -121,17 +124,28 @@ ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
                                     const std::string& source) {
   if (image_size_.area() == 0) image_size_ = image_size;
   ViewDecision d = judge(corners, edge_width_px);
-  if (d.kept) {
+  d.sharp = usableAndSharp(corners, edge_width_px);
+  if (d.kept || (selection_.keep_sharp_views && d.sharp)) {
     CalibrationView v;
     v.corners = corners;
     v.params = d.params;
     v.edge_width_px = edge_width_px;
     v.source = source;
     v.frame_index = frames_;
-    views_.push_back(v);
+    if (d.kept) views_.push_back(v);
+    if (selection_.keep_sharp_views) sharp_views_.push_back(std::move(v));
   }
   ++frames_;
   return d;
+}
+
+bool ViewCollector::usableAndSharp(const std::vector<cv::Point2f>& corners,
+                                   double edge_width_px) const {
+  if (static_cast<int>(corners.size()) != board_.cornerCount()) return false;
+  for (const auto& p : corners) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) return false;
+  }
+  return edge_width_px <= selection_.max_edge_width_px;
 }
 
 ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, double edge_width_px) {

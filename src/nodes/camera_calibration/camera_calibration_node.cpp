@@ -264,8 +264,8 @@ void CameraCalibrationNode::onFrame(const ros::Time& stamp, const cv::Mat& image
 void CameraCalibrationNode::publishDebug(const cv::Mat& frame) {
   if (debug_pub_.getNumSubscribers() == 0) return;
   const SweepFrameReport& last = run_->lastFrame();
-  const cv::Mat img = drawSweepDebugImage(frame, last.frame, run_->collector().coverage(),
-                                          camera_.selection.max_edge_width_px, run_->describe());
+  const cv::Mat img =
+      drawSweepDebugImage(frame, last.frame, run_->collector().coverage(), run_->describe());
   sensor_msgs::CompressedImage msg;
   msg.header.stamp = ros_layer::toRosTime(last.stamp_s);
   msg.format = "jpeg";

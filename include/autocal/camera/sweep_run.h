@@ -94,6 +94,10 @@ class SweepRun {
   bool wantsFrame(double stamp_s) const;
   /// Noted for the camera timeout even when not wanted (no decoding needed).
   void noteFrameArrived(double now_s);
+  /// Noted for the encoder timeout (addEncoders notes it too). A node that handles a batch of
+  /// messages calls both after the batch: a frame processed last in it may take long, and a
+  /// reading handled before it would look older than it is.
+  void noteEncodersArrived(double now_s);
   /// Processes a wanted frame (8-bit grey or colour, the size of the first frame: the caller
   /// drops others). Returns false when it was not wanted.
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source);

@@ -102,6 +102,10 @@ void SweepRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
   ticks_per_rev_ = ticks_per_revolution;
 }
 
+void SweepRun::noteEncodersArrived(double now_s) {
+  if (have_encoders_) encoder_arrival_s_ = std::max(encoder_arrival_s_, now_s);
+}
+
 void SweepRun::noteFrameArrived(double now_s) {
   have_frame_ = true;
   frame_arrival_s_ = std::max(frame_arrival_s_, now_s);

@@ -202,6 +202,7 @@ void CameraCalibrationNode::onRight(const dtmsg::WheelEncoderStamped::ConstPtr& 
 }
 
 void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
+  encoders_seen_ = true;
   if (run_ && have_left_ && have_right_)
     run_->addEncoders(stamp.toSec(), left_ticks_, right_ticks_, resolution_,
                       ros::Time::now().toSec());
@@ -210,6 +211,7 @@ void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
 void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
   guarded([&] {
     if (!run_) return;
+    frames_seen_ = true;
     run_->noteFrameArrived(ros::Time::now().toSec());
     // Decode only the frame the stage wants (one per step): the others cost nothing.
     if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
@@ -228,6 +230,7 @@ void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::Con
 void CameraCalibrationNode::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
   guarded([&] {
     if (!run_) return;
+    frames_seen_ = true;
     run_->noteFrameArrived(ros::Time::now().toSec());
     if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
     cv::Mat image;
@@ -326,9 +329,15 @@ void CameraCalibrationNode::run() {
   waitForCameraInfo();
   ros::Rate rate(options_.control_rate_hz);
   while (ros_layer::ok() && !run_->swept()) {
+    frames_seen_ = encoders_seen_ = false;
     ros::spinOnce();
     if (error_) std::rethrow_exception(error_);
-    const WheelDuties duties = run_->update(ros::Time::now().toSec());
+    // What arrived in this batch arrived now: processing a frame in it may have taken a while of
+    // sim time (at real_time_factor 0 the simulator runs on meanwhile).
+    const double now = ros::Time::now().toSec();
+    if (frames_seen_) run_->noteFrameArrived(now);
+    if (encoders_seen_) run_->noteEncodersArrived(now);
+    const WheelDuties duties = run_->update(now);
     wheels_.command(duties.left, duties.right);
     publishStatus(false);
     rate.sleep();

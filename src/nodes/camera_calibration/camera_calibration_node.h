@@ -89,6 +89,7 @@ class CameraCalibrationNode {
   bool have_left_ = false, have_right_ = false;
   int left_ticks_ = 0, right_ticks_ = 0, resolution_ = 0;
   int frames_dropped_ = 0;
+  bool frames_seen_ = false, encoders_seen_ = false;  ///< in the current batch of callbacks
   cv::Size first_size_;
   std::exception_ptr error_;
   ros::Time last_status_;

@@ -78,6 +78,8 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_camera_node)
   set(_cam_deps test_camera_node camera_calibration_node sim_node)
   add_rostest(test/camera/camera_node.test DEPENDENCIES ${_cam_deps})
+  add_rostest(test/camera/camera_node.test ARGS veh:=badframes inject_bad_frames:=true
+    DEPENDENCIES ${_cam_deps})
   add_rostest(test/camera/camera_node.test ARGS veh:=wide
     robot_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/fleet/robot_wide.yaml DEPENDENCIES ${_cam_deps})
   add_rostest(test/camera/camera_node.test ARGS veh:=narrow

@@ -5,11 +5,14 @@
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CompressedImage.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <sstream>
 
 #include "autocal/sim/config.h"
@@ -51,14 +54,41 @@ TEST(CameraNode, EndsAsTheTestFileExpects) {
 
   ros::NodeHandle nh(veh);
   std::vector<CalibrationStatus> statuses;
-  std::vector<nav_msgs::Odometry> truth;
+  // Only the latest ground truth: without a camera subscriber the simulator runs hundreds of
+  // times faster than real time and floods it.
+  std::optional<nav_msgs::Odometry> truth;
   ros::Subscriber status_sub = nh.subscribe<CalibrationStatus>(
       "calibration/status", 1000,
       [&](const CalibrationStatus::ConstPtr& m) { statuses.push_back(*m); });
   ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
-      "sim/ground_truth", 1000,
-      [&](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); });
+      "sim/ground_truth", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) { truth = *m; });
+  // Bad input beside the camera's frames: corrupt JPEGs and frames of another size, stamped now
+  // so that the node wants them; it must drop and count them and calibrate on the good ones.
+  const bool inject = testParam<bool>("inject_bad_frames");
+  ros::Publisher bad_pub;
+  if (inject)
+    bad_pub = nh.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 10);
+  cv::Mat small(240, 320, CV_8UC3, cv::Scalar(90, 90, 90));
+  sensor_msgs::CompressedImage corrupt, wrong_size;
+  corrupt.format = wrong_size.format = "jpeg";
+  cv::imencode(".jpg", small, wrong_size.data);
+  corrupt.data = wrong_size.data;
+  corrupt.data.resize(corrupt.data.size() / 3);  // cut off: does not decode
+  std::fill(corrupt.data.begin() + 2, corrupt.data.end(), 0x5a);
+  int injected = 0;
+  double last_inject = -1;
+  auto injectBadFrames = [&] {
+    if (!inject || !ros::Time::isValid()) return;
+    const double now = ros::Time::now().toSec();
+    if (now - last_inject < 0.05) return;
+    last_inject = now;
+    sensor_msgs::CompressedImage& m = injected % 2 ? corrupt : wrong_size;
+    m.header.stamp = ros::Time::now();
+    bad_pub.publish(m);
+    ++injected;
+  };
   auto finalState = [&] {
+    injectBadFrames();
     for (const auto& s : statuses)
       if (s.state == CalibrationStatus::STATE_DONE || s.state == CalibrationStatus::STATE_FAILED)
         return &s;
@@ -73,9 +103,8 @@ TEST(CameraNode, EndsAsTheTestFileExpects) {
 
   // The wheels stand still after the end: the ground truth a second later.
   const double t_end = end.header.stamp.toSec();
-  ASSERT_TRUE(spinUntil(
-      [&] { return !truth.empty() && truth.back().header.stamp.toSec() > t_end + 1.0; }, 60.0));
-  const nav_msgs::Odometry& last = truth.back();
+  ASSERT_TRUE(spinUntil([&] { return truth && truth->header.stamp.toSec() > t_end + 1.0; }, 60.0));
+  const nav_msgs::Odometry last = *truth;
   const double still = testParam<double>("still_speed");
   EXPECT_LT(std::abs(last.twist.twist.linear.x), still) << "the wheels still turn after the end";
   EXPECT_LT(std::abs(last.twist.twist.angular.z), 10 * still) << "the robot still turns";
@@ -93,6 +122,14 @@ TEST(CameraNode, EndsAsTheTestFileExpects) {
   }
 
   ASSERT_EQ(end.state, CalibrationStatus::STATE_DONE) << end.failure_reason;
+  if (inject) {
+    double dropped = -1;
+    for (size_t i = 0; i < end.figure_names.size(); ++i)
+      if (end.figure_names[i] == "frames_dropped") dropped = end.figure_values[i];
+    std::cout << "injected " << injected << " bad frames, the node dropped " << dropped << "\n";
+    EXPECT_GT(injected, 20);
+    EXPECT_GT(dropped, 0) << "bad frames reached the calibration unnoticed";
+  }
   EXPECT_EQ(end.text, "wrote " + yaml.string());
   // The earlier file is kept beside the new one.
   EXPECT_EQ(readFile(yaml.string() + ".prev"), earlier);

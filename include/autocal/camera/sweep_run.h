@@ -155,6 +155,9 @@ class SweepRun {
   bool probe_pulsed_ = false;
   bool pending_decision_ = false;  ///< a frame was processed; update() acts on its decision
   double settled_at_s_ = -1;       ///< when the robot was found settled (-1: not yet)
+  /// Updates in a row without a frame (encoder reading); a timeout needs more than this many.
+  static constexpr int kSilentUpdates = 10;
+  int updates_without_frames_ = 0, updates_without_encoders_ = 0;
   bool have_first_update_ = false;
   double first_update_s_ = 0;
 

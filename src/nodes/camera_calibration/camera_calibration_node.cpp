@@ -208,39 +208,38 @@ void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
                       ros::Time::now().toSec());
 }
 
+bool CameraCalibrationNode::frameWanted(const ros::Time& stamp) {
+  if (!run_) return false;
+  frames_seen_ = true;
+  run_->noteFrameArrived(ros::Time::now().toSec());
+  // Decode only the frame the stage wants (one per step): the others cost nothing.
+  return run_->wantsFrame(stamp.toSec());
+}
+
+void CameraCalibrationNode::dropFrame(const std::string& why) {
+  ++frames_dropped_;
+  ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped a frame: %s (%d so far)", why.c_str(),
+                    frames_dropped_);
+}
+
 void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
   guarded([&] {
-    if (!run_) return;
-    frames_seen_ = true;
-    run_->noteFrameArrived(ros::Time::now().toSec());
-    // Decode only the frame the stage wants (one per step): the others cost nothing.
-    if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
+    if (!frameWanted(msg->header.stamp)) return;
     cv::Mat image;
     if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
-    if (image.empty()) {
-      ++frames_dropped_;
-      ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped an undecodable frame (%d so far)",
-                        frames_dropped_);
-      return;
-    }
+    if (image.empty()) return dropFrame("the JPEG does not decode");
     onFrame(msg->header.stamp, image, "compressed@" + formatNumber(msg->header.stamp.toSec(), 6));
   });
 }
 
 void CameraCalibrationNode::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
   guarded([&] {
-    if (!run_) return;
-    frames_seen_ = true;
-    run_->noteFrameArrived(ros::Time::now().toSec());
-    if (!run_->wantsFrame(msg->header.stamp.toSec())) return;
+    if (!frameWanted(msg->header.stamp)) return;
     cv::Mat image;
     try {
       image = cv_bridge::toCvCopy(msg, "mono8")->image;
     } catch (const cv_bridge::Exception& e) {
-      ++frames_dropped_;
-      ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped a frame: %s (%d so far)", e.what(),
-                        frames_dropped_);
-      return;
+      return dropFrame(e.what());
     }
     onFrame(msg->header.stamp, image, "raw@" + formatNumber(msg->header.stamp.toSec(), 6));
   });
@@ -252,13 +251,10 @@ void CameraCalibrationNode::onFrame(const ros::Time& stamp, const cv::Mat& image
   const bool info_size_differs = have_info_ && (static_cast<int>(info_.width) != image.cols ||
                                                 static_cast<int>(info_.height) != image.rows);
   if (image.size() != first_size_ || info_size_differs) {
-    ++frames_dropped_;
-    ROS_WARN_THROTTLE(5,
-                      "camera_calibration_node: dropped a %dx%d frame (camera_info or the first "
-                      "frame says %dx%d; %d dropped so far)",
-                      image.cols, image.rows, have_info_ ? info_.width : first_size_.width,
-                      have_info_ ? info_.height : first_size_.height, frames_dropped_);
-    return;
+    const cv::Size want = have_info_ ? cv::Size(info_.width, info_.height) : first_size_;
+    return dropFrame("it is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                     ", camera_info or the first frame says " + std::to_string(want.width) + "x" +
+                     std::to_string(want.height));
   }
   run_->addFrame(stamp.toSec(), image, source);
   publishDebug(image);

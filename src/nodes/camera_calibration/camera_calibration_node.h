@@ -63,6 +63,10 @@ class CameraCalibrationNode {
   void onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg);
   void onRaw(const sensor_msgs::Image::ConstPtr& msg);
   void onFrame(const ros::Time& stamp, const cv::Mat& image, const std::string& source);
+  /// Notes a frame's arrival; true when the stage wants it decoded.
+  bool frameWanted(const ros::Time& stamp);
+  /// Counts a bad frame and warns (throttled).
+  void dropFrame(const std::string& why);
   void onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg);
   void onLeft(const dtmsg::WheelEncoderStamped::ConstPtr& msg);
   void onRight(const dtmsg::WheelEncoderStamped::ConstPtr& msg);

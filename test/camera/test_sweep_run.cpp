@@ -90,6 +90,27 @@ TEST(SweepRun, AWheelThatNeverMovesFailsTheProbeAndCommandsOneWheelOnly) {
   EXPECT_EQ(run.update(1e6).left, 0.0) << "a failed run commands nothing";
 }
 
+TEST(SweepRun, FramesThatArriveButAreAllDroppedFail) {
+  // The node drops every frame (undecodable, another size): they arrive, none is processed.
+  SweepRunOptions o;
+  o.probe_min_duty = false;
+  SweepRun run(o, config());
+  std::string failure;
+  try {
+    for (int i = 0; i < 3000; ++i) {
+      const double t = i * 0.01;
+      if (i % 3 == 0) {
+        run.addEncoders(t, 0, 0, 135, t);
+        run.noteFrameArrived(t);
+      }
+      run.update(t);
+    }
+  } catch (const CalibrationError& e) {
+    failure = e.what();
+  }
+  EXPECT_NE(failure.find("no usable camera frame"), std::string::npos) << failure;
+}
+
 TEST(SweepRunOptions, ValidateNamesTheBadKey) {
   SweepRunOptions o;
   o.max_step_duty = 1.5;

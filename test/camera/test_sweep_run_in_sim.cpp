@@ -60,12 +60,30 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
   EXPECT_NEAR(e.distortion_coefficients[0], t.distortion_coefficients[0], 0.02);
   EXPECT_LE(r.sim_s, 90.0);
 
-  // Held-out error: each view's reprojection with intrinsics fitted on all the others.
-  const camera::HoldoutEvaluation holdout = camera::leaveOneOut(
-      r.sharp, r.image_size, r.board, r.calibration_options, camera::HoldoutMethod::kAutocal);
-  std::cout << "held-out RMS " << holdout.mean_rms_px << " px over " << r.sharp.size()
-            << " folds, fx spread " << holdout.fx_spread_px << " px\n";
-  EXPECT_LE(holdout.mean_rms_px, 0.3);
+  // Held-out error: every fourth sharp view is held out, the others are calibrated as the run
+  // does, and each held-out view's pose is fitted with those intrinsics (a leave-one-out over
+  // 30-46 views takes a minute per robot; this split a second).
+  std::vector<std::vector<cv::Point2f>> train, held;
+  for (size_t i = 0; i < r.sharp.size(); ++i) (i % 4 == 0 ? held : train).push_back(r.sharp[i]);
+  const camera::CalibrationResult fit =
+      camera::calibrate(train, r.image_size, r.board, r.calibration_options);
+  const cv::Mat k(fit.intrinsics.cameraMatrix());
+  const cv::Mat dist(fit.intrinsics.distortion_coefficients);
+  double sum_sq = 0;
+  size_t n = 0;
+  for (const auto& view : held) {
+    cv::Mat rvec, tvec;
+    cv::solvePnP(r.board.points(), view, k, dist, rvec, tvec);
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(r.board.points(), rvec, tvec, k, dist, projected);
+    for (size_t j = 0; j < view.size(); ++j, ++n) {
+      const cv::Point2f d = projected[j] - view[j];
+      sum_sq += d.x * d.x + d.y * d.y;
+    }
+  }
+  const double held_out_rms = std::sqrt(sum_sq / std::max<size_t>(n, 1));
+  std::cout << "held-out RMS " << held_out_rms << " px on " << held.size() << " views\n";
+  EXPECT_LE(held_out_rms, 0.3);
 
   // The pipeline's choices (view selection, outliers, the distortion terms) keep what the views
   // know: plain cv::calibrateCamera (k1 k2 p1 p2 k3) on every sharp board the sweep saw lands no

@@ -264,7 +264,14 @@ WheelDuties SweepRun::update(double now_s) {
     return duties_;
   }
 
-  if (!pending_decision_) return stop;  // waiting for a frame taken after settled_at_s_
+  if (!pending_decision_) {
+    // Waiting for a frame taken after settled_at_s_. Frames that keep coming but cannot be used
+    // (undecodable, another size: the caller drops them) are a silent camera too.
+    if (now_s - settled_at_s_ > options_.camera_timeout_s)
+      fail("no usable camera frame for " + formatNumber(now_s - settled_at_s_, 3) +
+           " s after the robot stopped (frames arrive, but none could be used)");
+    return stop;
+  }
   pending_decision_ = false;
   const SweepDecision& decision = last_frame_.decision;
   if (decision.action == SweepAction::kFailed) fail("sweep: " + decision.reason);

@@ -247,15 +247,15 @@ void CameraCalibrationNode::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
 
 void CameraCalibrationNode::onFrame(const ros::Time& stamp, const cv::Mat& image,
                                     const std::string& source) {
-  if (first_size_.area() == 0) first_size_ = image.size();
-  const bool info_size_differs = have_info_ && (static_cast<int>(info_.width) != image.cols ||
-                                                static_cast<int>(info_.height) != image.rows);
-  if (image.size() != first_size_ || info_size_differs) {
-    const cv::Size want = have_info_ ? cv::Size(info_.width, info_.height) : first_size_;
+  // The size camera_info gives, else the first frame's: a frame of another size is dropped (and
+  // never becomes the size the others are held to).
+  const cv::Size want = have_info_ ? cv::Size(info_.width, info_.height) : first_size_;
+  if (want.area() > 0 && image.size() != want) {
     return dropFrame("it is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                     ", camera_info or the first frame says " + std::to_string(want.width) + "x" +
+                     ", the camera's frames are " + std::to_string(want.width) + "x" +
                      std::to_string(want.height));
   }
+  if (first_size_.area() == 0) first_size_ = image.size();
   run_->addFrame(stamp.toSec(), image, source);
   publishDebug(image);
 }

@@ -18,21 +18,14 @@
 #include "autocal/sim/config.h"
 #include "autocal_ros/msgs.h"
 #include "support/ros_wait.h"
+#include "support/test_params.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using autocal::CalibrationStatus;
 using autocal::test::spinUntil;
-
-template <typename T>
-T testParam(const std::string& name) {
-  T value{};
-  if (!ros::NodeHandle("~").getParam(name, value)) {
-    ADD_FAILURE() << "the .test file does not set ~" << name;
-  }
-  return value;
-}
+using autocal::test::testParam;
 
 std::string readFile(const std::string& path) {
   std::ifstream in(path);

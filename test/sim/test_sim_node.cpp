@@ -25,6 +25,7 @@
 #include "autocal/sim/config.h"
 #include "autocal_ros/msgs.h"
 #include "support/ros_wait.h"
+#include "support/test_params.h"
 
 namespace {
 
@@ -32,18 +33,9 @@ using autocal::dtmsg::WheelEncoderStamped;
 using autocal::dtmsg::WheelsCmdStamped;
 using autocal::test::spinUntil;
 using autocal::test::spinUntilSimTime;
+using autocal::test::testParam;
 
 std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"; }
-
-/// A private parameter of the test (the .test file sets expected values and tolerances).
-template <typename T>
-T testParam(const std::string& name) {
-  T value{};
-  if (!ros::NodeHandle("~").getParam(name, value)) {
-    ADD_FAILURE() << "the .test file does not set ~" << name;
-  }
-  return value;
-}
 
 /// Header stamps received per topic.
 struct StampLog {

@@ -1,0 +1,106 @@
+#include "autocal/wheels/tag_heading.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace wheels {
+
+double wrapAngle(double a) {
+  a = std::remainder(a, 2 * M_PI);
+  return a <= -M_PI ? a + 2 * M_PI : a;
+}
+
+void CameraMount::validate() const {
+  if (!(height_m > 0 && height_m < 5))
+    throw ConfigError("camera_height_m: must be within (0, 5) [m]");
+  if (!(std::abs(pitch_rad) < 1.4))
+    throw ConfigError("camera_pitch_rad: must be within (-1.4, 1.4) [rad]");
+  if (!std::isfinite(x_m) || std::abs(x_m) > 5)
+    throw ConfigError("camera_x_m: must be within [-5, 5] [m]");
+  if (!std::isfinite(y_m) || std::abs(y_m) > 5)
+    throw ConfigError("camera_y_m: must be within [-5, 5] [m]");
+}
+
+cv::Matx33d CameraMount::cameraToRobot() const {
+  const double c = std::cos(pitch_rad), s = std::sin(pitch_rad);
+  // Columns: the optical x (right), y (down-ish), z (forward, tilted down) in the robot frame.
+  return {0,  -s, c,  //
+          -1, 0,  0,  //
+          0,  -c, -s};
+}
+
+cv::Vec3d CameraMount::floorUpInCamera() const { return cameraToRobot().t() * cv::Vec3d(0, 0, 1); }
+
+TagSighting sightTag(const markers::TagDetection& detection, const CameraMount& mount) {
+  const cv::Matx33d R_rc = mount.cameraToRobot();
+  const cv::Matx33d R = R_rc * detection.rotation;  // tag axes in the robot frame
+  // The tag's up is its −y axis; its z axis points into the floor.
+  const cv::Vec3d up(-R(0, 1), -R(1, 1), -R(2, 1));
+  const cv::Vec3d into(R(0, 2), R(1, 2), R(2, 2));
+  TagSighting s;
+  s.id = detection.id;
+  s.heading_rad = -std::atan2(up[1], up[0]);
+  s.tilt_rad = std::acos(std::clamp(-into[2], -1.0, 1.0));
+  const cv::Vec3d p =
+      R_rc * detection.translation_m + cv::Vec3d(mount.x_m, mount.y_m, mount.height_m);
+  s.x_m = p[0];
+  s.y_m = p[1];
+  s.distance_m = cv::norm(detection.translation_m);
+  return s;
+}
+
+void HeadingOptions::validate() const {
+  if (!(max_tilt_rad > 0 && max_tilt_rad < M_PI / 2))
+    throw ConfigError("max_tag_tilt_rad: must be within (0, pi/2)");
+  if (!(outlier_rad > 0 && outlier_rad < M_PI))
+    throw ConfigError("tag_outlier_rad: must be within (0, pi)");
+  if (!(max_distance_m > 0)) throw ConfigError("max_tag_distance_m: must be > 0 [m]");
+}
+
+HeadingMeasurement measureHeading(const std::vector<TagSighting>& sightings,
+                                  const HeadingOptions& options) {
+  HeadingMeasurement m;
+  std::vector<double> headings;
+  for (const TagSighting& s : sightings) {
+    if (s.tilt_rad > options.max_tilt_rad || s.distance_m > options.max_distance_m ||
+        !std::isfinite(s.heading_rad)) {
+      ++m.outliers;
+    } else {
+      headings.push_back(s.heading_rad);
+    }
+  }
+  if (headings.empty()) return m;
+  // Median on the circle: the heading with the smallest sum of absolute angular differences.
+  double median = headings[0];
+  double best = 1e300;
+  for (double h : headings) {
+    double sum = 0;
+    for (double g : headings) sum += std::abs(wrapAngle(g - h));
+    if (sum < best) {
+      best = sum;
+      median = h;
+    }
+  }
+  double sum = 0, sum2 = 0;
+  for (double h : headings) {
+    const double d = wrapAngle(h - median);
+    if (std::abs(d) > options.outlier_rad) {
+      ++m.outliers;
+      continue;
+    }
+    sum += d;
+    sum2 += d * d;
+    ++m.inliers;
+  }
+  const double mean = sum / m.inliers;
+  m.valid = true;
+  m.heading_rad = wrapAngle(median + mean);
+  m.spread_rad = m.inliers > 1 ? std::sqrt(std::max(0.0, sum2 / m.inliers - mean * mean)) : 0.0;
+  return m;
+}
+
+}  // namespace wheels
+}  // namespace autocal

@@ -1,0 +1,123 @@
+// The trim estimator of paper 000 §3.4 against a closed-form robot: a right wheel c times as fast
+// as commanded turns the robot by Δθ = R(c·k − 1)φ_l/L per drive; straight needs k = 1/c.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/wheels/trim_estimator.h"
+
+using namespace autocal;
+
+namespace {
+
+struct Outcome {
+  double ratio = 1;
+  int drives = 0;
+};
+
+/// Drives until converged; `noise_rad` is the heading measurement's noise (two readings per drive).
+Outcome calibrate(double c, double noise_rad, uint64_t seed, wheels::TrimEstimatorOptions o = {}) {
+  wheels::TrimEstimator est(o);
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0, noise_rad);
+  const double phi = 0.5 / o.wheel_radius_m;  // a 0.5 m drive
+  while (!est.converged()) {
+    const double dtheta =
+        o.wheel_radius_m * (c * est.ratio() - 1) * phi / o.wheelbase_m + noise(rng) - noise(rng);
+    est.addDrive(dtheta, phi);
+  }
+  return {est.ratio(), est.iterations()};
+}
+
+}  // namespace
+
+TEST(TrimEstimator, OneNoiselessDriveGivesTheExactCorrection) {
+  wheels::TrimEstimatorOptions o;
+  wheels::TrimEstimator est(o);
+  const double c = 1.1;
+  const double phi = 10;
+  const auto& it = est.addDrive(o.wheel_radius_m * (c - 1) * phi / o.wheelbase_m, phi);
+  EXPECT_NEAR(it.k_i, 1.1, 1e-12);
+  EXPECT_NEAR(est.ratio(), 1 / c, 1e-12);  // far from straight: the full step
+}
+
+TEST(TrimEstimator, NearStraightTheUpdateIsThePapersHalfStep) {
+  wheels::TrimEstimatorOptions o;
+  wheels::TrimEstimator est(o);
+  const double c = 1.004, phi = 10;
+  est.addDrive(o.wheel_radius_m * (c - 1) * phi / o.wheelbase_m, phi);
+  EXPECT_NEAR(est.ratio(), 1 + 0.5 * (1 / c - 1), 1e-12);
+}
+
+TEST(TrimEstimator, ConvergesOverTheFleetsRangeWithinTenDrives) {
+  // Trims from −0.09 to +0.08 (5th..95th percentile of 103 Duckiebots): one wheel up to ~20 %
+  // stronger. Heading noise 0.1° per reading.
+  const double noise = 0.1 * M_PI / 180;
+  for (double c : {0.82, 0.9, 0.97, 1.0, 1.03, 1.1, 1.2}) {
+    for (uint64_t seed : {1, 2, 3}) {
+      const Outcome r = calibrate(c, noise, seed);
+      EXPECT_LE(r.drives, 10) << "c " << c;
+      // Residual speed mismatch below 0.1 %: less than 2 cm of drift over 2 m on a 0.1 m wheelbase.
+      EXPECT_NEAR(r.ratio * c, 1.0, 0.001) << "c " << c << " seed " << seed;
+    }
+  }
+}
+
+TEST(TrimEstimator, ThePapersDampedStepAloneConvergesTooButSlower) {
+  wheels::TrimEstimatorOptions o;
+  o.full_step_above = 1.0;  // never the full step: the paper as written
+  o.max_iterations = 30;
+  const Outcome paper = calibrate(1.2, 0, 1, o);
+  const Outcome ours = calibrate(1.2, 0, 1);
+  EXPECT_NEAR(paper.ratio * 1.2, 1.0, 0.001);
+  EXPECT_GT(paper.drives, ours.drives);
+}
+
+TEST(TrimEstimator, AnImplausibleDriveIsRejectedNotAveraged) {
+  wheels::TrimEstimatorOptions o;
+  wheels::TrimEstimator est(o);
+  const double phi = 10;                         // a 0.32 m drive
+  const auto& it = est.addDrive(M_PI / 2, phi);  // a tag read at 90°
+  EXPECT_TRUE(it.rejected);
+  EXPECT_DOUBLE_EQ(est.ratio(), 1.0);
+  est.addDrive(o.wheel_radius_m * 0.05 * phi / o.wheelbase_m, phi);
+  EXPECT_NEAR(est.ratio(), 1 / 1.05, 1e-12);
+}
+
+TEST(TrimEstimator, RepeatedImplausibleDrivesFail) {
+  wheels::TrimEstimator est{wheels::TrimEstimatorOptions()};
+  est.addDrive(1.5, 10);
+  est.addDrive(1.5, 10);
+  EXPECT_THROW(est.addDrive(1.5, 10), CalibrationError);
+}
+
+TEST(TrimEstimator, ADivergingRatioFails) {
+  wheels::TrimEstimatorOptions o;
+  o.max_ratio_deviation = 0.1;
+  wheels::TrimEstimator est(o);
+  const double phi = 15;
+  EXPECT_THROW(est.addDrive(o.wheel_radius_m * 0.3 * phi / o.wheelbase_m, phi), CalibrationError);
+}
+
+TEST(TrimEstimator, NoConvergenceWithinTheBoundFails) {
+  wheels::TrimEstimatorOptions o;
+  o.max_iterations = 4;
+  wheels::TrimEstimator est(o);
+  const double phi = 15;
+  // A heading change that alternates sign never lets the updates fall below E.
+  EXPECT_NO_THROW(est.addDrive(0.1, phi));
+  EXPECT_NO_THROW(est.addDrive(-0.1, phi));
+  EXPECT_NO_THROW(est.addDrive(0.1, phi));
+  EXPECT_THROW(est.addDrive(-0.1, phi), CalibrationError);
+}
+
+TEST(TrimEstimator, BadInputAndOptions) {
+  wheels::TrimEstimator est{wheels::TrimEstimatorOptions()};
+  EXPECT_THROW(est.addDrive(NAN, 10), InputError);
+  EXPECT_THROW(est.addDrive(0.1, 0), InputError);
+  wheels::TrimEstimatorOptions o;
+  o.damping = 0;
+  EXPECT_THROW(o.validate(), ConfigError);
+}

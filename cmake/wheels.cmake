@@ -2,7 +2,8 @@
 target_sources(autocal_core PRIVATE
   src/core/markers/tag_detector.cpp
   src/core/wheels/tag_heading.cpp
-  src/core/wheels/trim_estimator.cpp)
+  src/core/wheels/trim_estimator.cpp
+  src/core/wheels/wheel_run.cpp)
 # The wheel stage detects tags: AprilTag is linked where it is used.
 target_link_libraries(autocal_core PUBLIC apriltag::apriltag)
 
@@ -12,4 +13,10 @@ if(CATKIN_ENABLE_TESTING)
   # Detection and heading on rendered frames, against the simulator's true pose.
   autocal_core_gtest(test_tag_heading_in_sim SOURCES test/wheels/test_tag_heading_in_sim.cpp
                      LIBS autocal_core autocal_sim_core)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  target_sources(autocal_test_support PRIVATE test/support/wheels_in_sim.cpp)
+  autocal_core_gtest(test_wheel_run_in_sim SOURCES test/wheels/test_wheel_run_in_sim.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
 endif()

@@ -50,6 +50,9 @@ struct HeadingOptions {
   double outlier_rad = 0.09;
   /// Tags farther than this from the camera are not used (small, foreshortened: poor pose) [m].
   double max_distance_m = 0.6;
+  /// When a tag nearer than this is in view, only such tags are used [m]: a 6.5 cm tag's heading is
+  /// within 0.1° of the truth up to 0.3 m and biased by up to 1° at 0.5 m (simulator, 640x480).
+  double prefer_distance_m = 0.3;
 
   void validate() const;
 };
@@ -60,7 +63,8 @@ struct HeadingMeasurement {
   double heading_rad = 0;  ///< mean of the inliers' headings
   double spread_rad = 0;   ///< standard deviation of the inliers' headings (0 for one)
   int inliers = 0;
-  int outliers = 0;  ///< rejected: tilted, too far or off the median
+  int outliers = 0;   ///< rejected: tilted, too far or off the median
+  bool near = false;  ///< only tags within prefer_distance_m were used
 };
 
 /// Median, reject the outliers, average the rest (angles near each other: no wrap issue within

@@ -9,8 +9,10 @@
 //
 // Beyond the paper: far from straight (|k_i − 1| ≥ full_step_above), where a drive's noise is small
 // against its signal, the step is the whole correction, so a robot 20 % off converges in a few
-// drives instead of eight halvings; a drive whose k_i is implausible (a mis-detection, a tag read
-// at another orientation) is rejected and repeated, never averaged in.
+// drives instead of eight halvings; once converged, k is the mean of what the ignored drives
+// measured (each below E, together they still carry a consistent residual); a drive whose k_i is
+// implausible (a mis-detection, a tag read at another orientation) is rejected and repeated, never
+// averaged in.
 #pragma once
 
 #include <string>
@@ -23,7 +25,7 @@ struct TrimEstimatorOptions {
   /// k at the start: commanded right/left wheel-speed ratio (1 = the wheels are assumed equal).
   double initial_ratio = 1.0;
   /// E: an update of k smaller than this is ignored [1].
-  double min_update = 0.0004;
+  double min_update = 0.0003;
   /// This many ignored updates in a row: converged (paper: three).
   int ignored_to_converge = 3;
   /// The damping of the paper's update ((k_i − 1)/2: 0.5).

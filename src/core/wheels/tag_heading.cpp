@@ -58,14 +58,25 @@ void HeadingOptions::validate() const {
   if (!(outlier_rad > 0 && outlier_rad < M_PI))
     throw ConfigError("tag_outlier_rad: must be within (0, pi)");
   if (!(max_distance_m > 0)) throw ConfigError("max_tag_distance_m: must be > 0 [m]");
+  if (!(prefer_distance_m > 0 && prefer_distance_m <= max_distance_m)) {
+    throw ConfigError("prefer_tag_distance_m: must be within (0, max_tag_distance_m] [m]");
+  }
 }
 
 HeadingMeasurement measureHeading(const std::vector<TagSighting>& sightings,
                                   const HeadingOptions& options) {
   HeadingMeasurement m;
   std::vector<double> headings;
+  bool any_near = false;
   for (const TagSighting& s : sightings) {
-    if (s.tilt_rad > options.max_tilt_rad || s.distance_m > options.max_distance_m ||
+    any_near =
+        any_near || (s.tilt_rad <= options.max_tilt_rad &&
+                     s.distance_m <= options.prefer_distance_m && std::isfinite(s.heading_rad));
+  }
+  m.near = any_near;
+  const double max_distance = any_near ? options.prefer_distance_m : options.max_distance_m;
+  for (const TagSighting& s : sightings) {
+    if (s.tilt_rad > options.max_tilt_rad || s.distance_m > max_distance ||
         !std::isfinite(s.heading_rad)) {
       ++m.outliers;
     } else {

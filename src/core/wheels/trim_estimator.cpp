@@ -66,7 +66,18 @@ const TrimIteration& TrimEstimator::addDrive(double delta_theta_rad, double left
   }
   it.ratio_after = ratio_;
   history_.push_back(it);
-  if (ignored_in_a_row_ >= options_.ignored_to_converge) converged_ = true;
+  if (ignored_in_a_row_ >= options_.ignored_to_converge) {
+    // Beyond the paper: each ignored drive's correction is below E, but together they still carry
+    // the residual they agree on; the result is the mean of what they measured.
+    double sum = 0;
+    for (int i = 0; i < ignored_in_a_row_; ++i) {
+      const TrimIteration& d = history_[history_.size() - 1 - i];
+      sum += d.ratio_before / d.k_i;
+    }
+    ratio_ = sum / ignored_in_a_row_;
+    history_.back().ratio_after = ratio_;
+    converged_ = true;
+  }
   if (rejected_in_a_row_ >= options_.max_rejected_in_a_row) {
     throw CalibrationError(std::to_string(rejected_in_a_row_) +
                            " drives in a row measured an implausible heading change (last k_i " +

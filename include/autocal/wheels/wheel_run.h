@@ -1,0 +1,235 @@
+// The wheel stage of the self-calibration, ROS-free (paper 000 §3.3, §3.4, §5.1):
+//   align    turn one wheel at a time in steps until a floor tag is in view and the robot's heading
+//            relative to the tags is near zero (§3.3);
+//   iterate  drive forward for a fixed time at the current trim, measure the heading change from
+//            the tags, update the trim (TrimEstimator, §3.4), drive back the same time; repeat
+//            until three updates in a row are ignored;
+//   leave    re-align, drive straight until no tag has been in view for a while, drive on a given
+//            distance, stop (§5.1).
+// Beyond the paper, the deadband: the drives alternate between two speeds and each wheel's
+// steady encoder rate against its duty gives the duty at which it starts to turn (a line fit per
+// wheel); with that offset compensated the wheel speed is proportional to the command, and the
+// trim that converges at both speeds is right at every speed.
+//
+// The node feeds it time, encoder readings and frames and commands the duties update() returns;
+// it runs on the stamps it is given (sim time in the simulator), so it is tested without a master.
+// Failures are thrown as CalibrationError.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "autocal/camera_intrinsics.h"
+#include "autocal/markers/tag_detector.h"
+#include "autocal/sensors.h"
+#include "autocal/wheels/kinematics.h"
+#include "autocal/wheels/tag_heading.h"
+#include "autocal/wheels/trim_estimator.h"
+
+namespace autocal {
+namespace wheels {
+
+struct WheelRunOptions {
+  markers::TagDetectorOptions detector;
+  HeadingOptions heading;
+  CameraMount mount;
+  TrimEstimatorOptions trim;
+  /// The robot's kinematics before the calibration (file or defaults): gain, radius, baseline, k,
+  /// limit are kept; trim is replaced; deadband_left/right are the first guess of the offsets
+  /// (e.g. the camera stage's minimum moving duties) and are replaced when compensating.
+  KinematicsParams kinematics;
+
+  /// Fit and compensate each wheel's deadband (written as deadband_left/right); false: Duckietown's
+  /// semantics exactly (offsets 0), the trim is then right at the first drive speed only.
+  bool compensate_deadband = true;
+  /// Speed of the forward drives that measure the trim [m/s] (the calibration speed).
+  double drive_speed_mps = 0.25;
+  /// Speed of the drives back over the same distance [m/s]: with compensate_deadband another speed,
+  /// so that the two give each wheel's duty → speed line (else the drive speed).
+  double back_speed_mps = 0.4;
+  /// Length of one drive (paper §3.4: fixed time) [s], once the trim is close. An uncalibrated
+  /// robot one wheel 20 % stronger would turn by a radian over such a drive and lose the tags, so a
+  /// drive is shortened (not below min_drive_s) to turn by at most max_drive_turn_rad for the ratio
+  /// error still expected: initial_ratio_error before the first drive, half the last update after
+  /// it.
+  double drive_s = 4.0;
+  double min_drive_s = 0.5;
+  double max_drive_turn_rad = 0.25;
+  double initial_ratio_error = 0.25;
+  /// The start of a drive that the motor fit skips (the wheels' lag) [s].
+  double motor_settle_s = 0.3;
+  /// Only drives whose steady part lasts this long enter the motor fit [s].
+  double min_fit_window_s = 0.8;
+
+  /// |heading| below which the robot counts as aligned with the tags [rad].
+  double align_tolerance_rad = 0.035;
+  /// Before a drive, |heading| above this makes the robot re-align first [rad].
+  double realign_above_rad = 0.15;
+  /// Turning steps: the driving wheel's duty above its offset [1], the longest pulse (paper §3.2:
+  /// 0.1 s) and the shortest [s].
+  double turn_duty_margin = 0.06;
+  double max_pulse_s = 0.1;
+  double min_pulse_s = 0.02;
+  /// While no tag is in view the steps are longer: about this turn each [rad] (well below the field
+  /// of view, so no tag is stepped over), pulses up to max_search_pulse_s [s].
+  double search_step_rad = 0.25;
+  double max_search_pulse_s = 0.6;
+  /// Turning without seeing a tag for more than this fails ("no tag in a full turn") [rad].
+  double max_search_turn_rad = 7.0;
+  /// Turning steps in one alignment before it fails.
+  int max_align_steps = 80;
+
+  /// Wait after a stop until the encoders have been still this long [s] and at least settle_s.
+  double still_s = 0.1;
+  double settle_s = 0.3;
+  /// Frames whose tags make one heading measurement.
+  int heading_frames = 8;
+  /// A measurement that sees no tag in this many frames gives up (re-align, or fail) [frames].
+  int max_frames_without_tags = 4;
+
+  /// Leaving: speed [m/s]; no tag in view for this long means out of the tag field [s]; then drive
+  /// on this far [m] (the camera does not see the floor just ahead of the robot); fail when still
+  /// seeing tags after max_leave_m [m].
+  double leave_speed_mps = 0.2;
+  double leave_clear_s = 0.5;
+  double exit_extra_m = 0.3;
+  double max_leave_m = 3.0;
+
+  double camera_timeout_s = 5.0;
+  double encoder_timeout_s = 2.0;
+  double max_duration_s = 600.0;
+
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+enum class WheelRunStage { kWaitForData, kAlign, kIterate, kLeave, kDone, kFailed };
+const char* name(WheelRunStage stage);  ///< "wait", "align", "iterate", "leave", "done", "failed"
+
+/// One wheel's duty → steady speed line, from the forward drives [rad/s per duty].
+struct MotorFit {
+  bool valid = false;
+  double slope = 0;   ///< [rad/s]
+  double offset = 0;  ///< duty at which the wheel starts to turn [1]
+  int points = 0;
+};
+
+class WheelRun {
+ public:
+  /// Throws ConfigError on bad options or intrinsics.
+  WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intrinsics);
+  ~WheelRun();
+
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
+                   double now_s);
+  void noteEncodersArrived(double now_s);
+  void noteFrameArrived(double now_s);
+  /// Whether a frame stamped `stamp_s` is wanted (others are dropped unprocessed).
+  bool wantsFrame(double stamp_s) const;
+  /// Detects the tags of a wanted frame. Throws InputError on a bad image.
+  void addFrame(double stamp_s, const cv::Mat& image);
+  /// Advances the run; returns the duties to command now (zero when done or failed).
+  WheelDuties update(double now_s);
+
+  WheelRunStage stage() const { return stage_; }
+  bool done() const { return stage_ == WheelRunStage::kDone; }
+  bool failed() const { return stage_ == WheelRunStage::kFailed; }
+  const std::string& failure() const { return failure_; }
+
+  /// The calibrated kinematics (valid once the iteration converged): trim from the ratio, the
+  /// fitted offsets when compensating.
+  KinematicsParams result() const;
+  const TrimEstimator& estimator() const { return estimator_; }
+  const MotorFit& motorFit(bool left) const { return left ? fit_left_ : fit_right_; }
+  /// The last heading measured [rad] (NaN before the first).
+  double lastHeadingRad() const { return last_heading_rad_; }
+  /// Tags detected in the last processed frame.
+  const std::vector<markers::TagDetection>& lastDetections() const { return last_detections_; }
+  double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
+  /// 0..1, a rough share of the stage done.
+  double progress() const;
+  /// One line: stage, step, k, last Δθ, heading.
+  std::string describe() const;
+
+ private:
+  enum class Motion { kNone, kPulse, kDrive, kSettle, kMeasure };
+  enum class Purpose { kAlign, kBeforeDrive, kAfterForward, kAfterDrive, kAfterBack, kLeaveDrive };
+
+  void fail(const std::string& why);
+  void startAlign(WheelRunStage then);
+  void startMeasure(Purpose purpose, double now_s);
+  void startPulse(double now_s);
+  void startDrive(double now_s, int sign, double speed_mps);
+  void stopMotion(double now_s);
+  bool settled(double now_s) const;
+  void onMeasured(double now_s);
+  void onSettled(double now_s);
+  void recordDriveForFit();
+  void startLeave(double now_s);
+  KinematicsParams driveParams() const;
+  double driveSeconds(double speed_mps) const;
+
+  WheelRunOptions options_;
+  std::unique_ptr<markers::TagDetector> detector_;
+  TrimEstimator estimator_;
+  WheelRunStage stage_ = WheelRunStage::kWaitForData;
+  WheelRunStage after_align_ = WheelRunStage::kIterate;
+  Motion motion_ = Motion::kNone;
+  Purpose purpose_ = Purpose::kAlign;
+  std::string failure_;
+
+  // clock and inputs
+  bool started_ = false;
+  double start_s_ = 0, last_now_s_ = 0;
+  bool have_frame_ = false, have_encoders_ = false;
+  int updates_without_frames_ = 0, updates_without_encoders_ = 0;
+  double encoder_stamp_s_ = -1, last_change_s_ = -1;
+  int left_ = 0, right_ = 0, ticks_per_rev_ = 0;
+
+  // motion
+  WheelDuties duties_;
+  double motion_end_s_ = 0, stop_s_ = -1e9;
+  int drive_sign_ = 0;
+  double drive_speed_mps_ = 0;
+  WheelDuties drive_duties_;
+  KinematicsParams drive_params_;  // what the last forward drive drove with
+  double drive_start_s_ = 0, drive_end_s_ = 0, drive_start_forward_s_ = 0;
+  double ratio_error_ = 0;
+  int drive_start_left_ = 0;
+  std::vector<std::array<double, 3>> drive_samples_;  // stamp, left ticks, right ticks
+  std::vector<std::array<double, 2>> fit_points_left_, fit_points_right_;  // duty, rate
+  MotorFit fit_left_, fit_right_;
+
+  // measuring
+  std::vector<TagSighting> sightings_;
+  int frames_in_measurement_ = 0, frames_without_tags_ = 0;
+  double measure_from_s_ = 0;
+  double last_heading_rad_;
+  double heading_before_drive_ = 0;
+  double drive_left_angle_rad_ = 0;
+  std::vector<markers::TagDetection> last_detections_;
+
+  // aligning
+  int align_steps_ = 0;
+  double search_turned_rad_ = 0;
+  double pulse_s_ = 0.1;
+  int pulse_dir_ = 0;  // +1 ccw, -1 cw
+  int pulse_start_right_ = 0;
+  double rad_per_pulse_s_ = 0;
+  double turn_duty_boost_ = 0;
+
+  // iterating / leaving
+  int iteration_ = 0;
+  int drives_without_tags_ = 0;
+  double last_delta_theta_rad_ = 0;
+  double leave_start_left_ = 0;
+  double last_tag_seen_s_ = 0;
+  bool leave_clear_ = false;
+  int leave_clear_left_ = 0;
+};
+
+}  // namespace wheels
+}  // namespace autocal

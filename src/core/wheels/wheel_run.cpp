@@ -1,0 +1,531 @@
+// The wheel stage's loop: align (paper 000 §3.3), iterate (§3.4), leave (§5.1).
+#include "autocal/wheels/wheel_run.h"
+
+#include <cmath>
+#include <limits>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace wheels {
+
+namespace {
+/// Silence counts only over this many updates in a row without a message: a node that was not
+/// scheduled for a while is not mistaken for a dead sensor.
+constexpr int kSilentUpdates = 10;
+constexpr double kMaxSettleS = 2.0;
+std::string deg(double rad) { return formatNumber(rad * 180.0 / M_PI, 3) + " deg"; }
+}  // namespace
+
+const char* name(WheelRunStage stage) {
+  switch (stage) {
+    case WheelRunStage::kWaitForData:
+      return "wait";
+    case WheelRunStage::kAlign:
+      return "align";
+    case WheelRunStage::kIterate:
+      return "iterate";
+    case WheelRunStage::kLeave:
+      return "leave";
+    case WheelRunStage::kDone:
+      return "done";
+    case WheelRunStage::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+void WheelRunOptions::validate() const {
+  detector.validate();
+  heading.validate();
+  mount.validate();
+  trim.validate();
+  kinematics.validate();
+  if (!(drive_speed_mps > 0 && drive_speed_mps <= kinematics.v_max))
+    throw ConfigError("drive_speed_mps: must be within (0, v_max] [m/s]");
+  if (!(back_speed_mps > 0 && back_speed_mps <= kinematics.v_max))
+    throw ConfigError("back_speed_mps: must be within (0, v_max] [m/s]");
+  if (compensate_deadband && std::abs(back_speed_mps - drive_speed_mps) < 0.05) {
+    throw ConfigError(
+        "back_speed_mps: must differ from drive_speed_mps by 0.05 m/s or more to fit the deadband");
+  }
+  if (!(drive_s > 0.3 && drive_s < 20)) throw ConfigError("drive_s: must be within (0.3, 20) [s]");
+  if (!(min_fit_window_s > 0 && min_fit_window_s <= drive_s - motor_settle_s))
+    throw ConfigError("min_fit_window_s: must be within (0, drive_s - motor_settle_s] [s]");
+  if (!(min_drive_s > 0 && min_drive_s <= drive_s))
+    throw ConfigError("min_drive_s: must be within (0, drive_s] [s]");
+  if (!(max_drive_turn_rad > 0 && max_drive_turn_rad < 1))
+    throw ConfigError("max_drive_turn_rad: must be within (0, 1) [rad]");
+  if (!(initial_ratio_error > 0 && initial_ratio_error < 1))
+    throw ConfigError("initial_ratio_error: must be within (0, 1)");
+  if (!(motor_settle_s >= 0 && motor_settle_s < min_drive_s - 0.15))
+    throw ConfigError("motor_settle_s: must be within [0, min_drive_s - 0.15) [s]");
+  if (!(align_tolerance_rad > 0 && align_tolerance_rad < 0.5))
+    throw ConfigError("align_tolerance_rad: must be within (0, 0.5)");
+  if (!(realign_above_rad > align_tolerance_rad))
+    throw ConfigError("realign_above_rad: must exceed align_tolerance_rad");
+  if (!(turn_duty_margin > 0 && turn_duty_margin < 0.5))
+    throw ConfigError("turn_duty_margin: must be within (0, 0.5)");
+  if (!(min_pulse_s > 0 && max_pulse_s >= min_pulse_s && max_pulse_s <= 1))
+    throw ConfigError("min_pulse_s/max_pulse_s: need 0 < min <= max <= 1 [s]");
+  if (!(search_step_rad > 0 && search_step_rad < 1.0))
+    throw ConfigError("search_step_rad: must be within (0, 1) [rad]");
+  if (!(max_search_pulse_s >= max_pulse_s && max_search_pulse_s <= 2))
+    throw ConfigError("max_search_pulse_s: must be within [max_pulse_s, 2] [s]");
+  if (!(max_search_turn_rad > 0)) throw ConfigError("max_search_turn_rad: must be > 0");
+  if (max_align_steps < 1) throw ConfigError("max_align_steps: must be >= 1");
+  if (!(still_s > 0) || !(settle_s >= 0))
+    throw ConfigError("still_s/settle_s: must be > 0 / >= 0 [s]");
+  if (heading_frames < 1) throw ConfigError("heading_frames: must be >= 1");
+  if (max_frames_without_tags < 1) throw ConfigError("max_frames_without_tags: must be >= 1");
+  if (!(leave_speed_mps > 0 && leave_speed_mps <= kinematics.v_max))
+    throw ConfigError("leave_speed_mps: must be within (0, v_max]");
+  if (!(leave_clear_s > 0)) throw ConfigError("leave_clear_s: must be > 0 [s]");
+  if (!(exit_extra_m >= 0)) throw ConfigError("exit_extra_m: must be >= 0 [m]");
+  if (!(max_leave_m > exit_extra_m)) throw ConfigError("max_leave_m: must exceed exit_extra_m [m]");
+  if (!(camera_timeout_s > 0 && encoder_timeout_s > 0 && max_duration_s > 0))
+    throw ConfigError("camera_timeout_s/encoder_timeout_s/max_duration_s: must be > 0 [s]");
+}
+
+WheelRun::WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intrinsics)
+    : options_(options),
+      estimator_((options.validate(), options.trim)),
+      last_heading_rad_(std::numeric_limits<double>::quiet_NaN()) {
+  detector_.reset(new markers::TagDetector(options_.detector, intrinsics));
+  detector_->setFloorNormal(options_.mount.floorUpInCamera());
+  pulse_s_ = options_.max_pulse_s;
+  ratio_error_ = options_.initial_ratio_error;
+}
+
+WheelRun::~WheelRun() = default;
+
+void WheelRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                           int ticks_per_revolution, double now_s) {
+  if (ticks_per_revolution <= 0)
+    throw InputError("encoder resolution must be > 0 ticks per revolution");
+  (void)now_s;
+  updates_without_encoders_ = 0;
+  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
+  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
+  have_encoders_ = true;
+  encoder_stamp_s_ = stamp_s;
+  left_ = left_ticks;
+  right_ = right_ticks;
+  ticks_per_rev_ = ticks_per_revolution;
+  if (motion_ == Motion::kDrive)
+    drive_samples_.push_back({stamp_s, double(left_ticks), double(right_ticks)});
+}
+
+void WheelRun::noteEncodersArrived(double) { updates_without_encoders_ = 0; }
+
+void WheelRun::noteFrameArrived(double) {
+  have_frame_ = true;
+  updates_without_frames_ = 0;
+}
+
+bool WheelRun::wantsFrame(double stamp_s) const {
+  if (motion_ == Motion::kMeasure) return stamp_s >= measure_from_s_;
+  return stage_ == WheelRunStage::kLeave && motion_ == Motion::kDrive;
+}
+
+void WheelRun::fail(const std::string& why) {
+  stage_ = WheelRunStage::kFailed;
+  failure_ = why;
+  duties_ = {};
+  motion_ = Motion::kNone;
+  throw CalibrationError(why);
+}
+
+KinematicsParams WheelRun::driveParams() const {
+  KinematicsParams p = options_.kinematics;
+  p.trim = trimFromSpeedRatio(estimator_.ratio(), p.gain);
+  if (!options_.compensate_deadband) {
+    p.deadband_left = p.deadband_right = 0;
+  } else {
+    if (fit_left_.valid) p.deadband_left = fit_left_.offset;
+    if (fit_right_.valid) p.deadband_right = fit_right_.offset;
+  }
+  return p;
+}
+
+KinematicsParams WheelRun::result() const { return driveParams(); }
+
+double WheelRun::driveSeconds(double speed_mps) const {
+  // A ratio error e turns the robot by about e·distance/baseline over a drive.
+  // Until both deadbands are fitted the ratio depends on the speed, and the next drive's speed
+  // differs from the last one's: expect at least 5 %.
+  const bool fitted = !options_.compensate_deadband || (fit_left_.valid && fit_right_.valid);
+  const double error = fitted ? ratio_error_ : std::max(ratio_error_, 0.05);
+  const double s = options_.max_drive_turn_rad * options_.kinematics.baseline / (error * speed_mps);
+  return std::clamp(s, options_.min_drive_s, options_.drive_s);
+}
+
+void WheelRun::startMeasure(Purpose purpose, double now_s) {
+  motion_ = Motion::kMeasure;
+  purpose_ = purpose;
+  duties_ = {};
+  sightings_.clear();
+  frames_in_measurement_ = 0;
+  frames_without_tags_ = 0;
+  measure_from_s_ = now_s;
+}
+
+void WheelRun::startAlign(WheelRunStage then) {
+  stage_ = WheelRunStage::kAlign;
+  after_align_ = then;
+  align_steps_ = 0;
+  search_turned_rad_ = 0;
+  startMeasure(Purpose::kAlign, last_now_s_);
+}
+
+void WheelRun::startPulse(double now_s) {
+  // Paper §3.2–3.3: one wheel turns, the other stands (here the right wheel drives and the robot
+  // pivots on the left wheel, so it stays where it is over any number of steps).
+  const double offset = std::max(driveParams().deadband_right, options_.kinematics.deadband_right);
+  const double duty = std::min(0.9, offset + options_.turn_duty_margin + turn_duty_boost_);
+  duties_ = {0.0, pulse_dir_ * duty};
+  motion_ = Motion::kPulse;
+  pulse_start_right_ = right_;
+  motion_end_s_ = now_s + pulse_s_;
+  purpose_ = Purpose::kAlign;
+}
+
+void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
+  const KinematicsParams p = drive_params_ = driveParams();
+  const double w = speed_mps / p.radius;
+  const WheelDuties d = speedsToDuties(p, {w, w});
+  drive_duties_ = d;
+  drive_sign_ = sign;
+  drive_speed_mps_ = speed_mps;
+  duties_ = {sign * d.left, sign * d.right};
+  motion_ = Motion::kDrive;
+  drive_start_s_ = drive_start_forward_s_ = now_s;
+  drive_start_left_ = left_;
+  drive_samples_.clear();
+  motion_end_s_ = drive_end_s_ = now_s + driveSeconds(speed_mps);
+}
+
+void WheelRun::stopMotion(double now_s) {
+  duties_ = {};
+  motion_ = Motion::kSettle;
+  stop_s_ = now_s;
+}
+
+bool WheelRun::settled(double now_s) const {
+  if (now_s < stop_s_ + options_.settle_s) return false;
+  if (now_s >= stop_s_ + kMaxSettleS) return true;
+  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+}
+
+void WheelRun::recordDriveForFit() {
+  if (!options_.compensate_deadband) return;
+  // Steady rate of each wheel: least squares of ticks against time after the motors' lag.
+  const double t0 = drive_start_s_ + options_.motor_settle_s, t1 = drive_end_s_;
+  if (t1 - t0 < options_.min_fit_window_s) return;  // a short drive's rate is too coarse
+  double n = 0, st = 0, stt = 0, sl = 0, sr = 0, stl = 0, str = 0;
+  for (const auto& s : drive_samples_) {
+    if (s[0] < t0 || s[0] > t1) continue;
+    n += 1, st += s[0], stt += s[0] * s[0], sl += s[1], sr += s[2], stl += s[0] * s[1],
+        str += s[0] * s[2];
+  }
+  if (n < 5) return;
+  const double den = n * stt - st * st;
+  if (den <= 0) return;
+  const double k = 2 * M_PI / ticks_per_rev_;
+  fit_points_left_.push_back(
+      {std::abs(drive_duties_.left), std::abs(k * (n * stl - st * sl) / den)});
+  fit_points_right_.push_back(
+      {std::abs(drive_duties_.right), std::abs(k * (n * str - st * sr) / den)});
+  auto fit = [](const std::vector<std::array<double, 2>>& pts, MotorFit& out) {
+    double lo = 1e9, hi = -1e9, m = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (const auto& p : pts) {
+      lo = std::min(lo, p[0]), hi = std::max(hi, p[0]);
+      m += 1, sx += p[0], sy += p[1], sxx += p[0] * p[0], sxy += p[0] * p[1];
+    }
+    if (hi - lo < 0.03) return;  // one duty: the line is not determined
+    const double a = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+    const double b = (sy - a * sx) / m;
+    if (!(a > 0)) return;
+    const double offset = -b / a;
+    if (!(offset >= 0 && offset < 0.6)) return;
+    out = {true, a, offset, static_cast<int>(m)};
+  };
+  fit(fit_points_left_, fit_left_);
+  fit(fit_points_right_, fit_right_);
+}
+
+void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
+  last_detections_ = detector_->detect(image);
+  std::vector<TagSighting> frame;
+  for (const auto& d : last_detections_) frame.push_back(sightTag(d, options_.mount));
+  if (stage_ == WheelRunStage::kLeave && motion_ == Motion::kDrive) {
+    if (!last_detections_.empty()) last_tag_seen_s_ = stamp_s;
+    return;
+  }
+  if (motion_ != Motion::kMeasure || stamp_s < measure_from_s_) return;
+  ++frames_in_measurement_;
+  if (!measureHeading(frame, options_.heading).valid) {
+    ++frames_without_tags_;
+  } else {
+    sightings_.insert(sightings_.end(), frame.begin(), frame.end());
+  }
+  const int with_tags = frames_in_measurement_ - frames_without_tags_;
+  if (with_tags >= options_.heading_frames ||
+      frames_without_tags_ >= options_.max_frames_without_tags) {
+    onMeasured(stamp_s);
+  }
+}
+
+void WheelRun::onMeasured(double now_s) {
+  const HeadingMeasurement m = measureHeading(sightings_, options_.heading);
+  if (m.valid) last_heading_rad_ = m.heading_rad;
+  switch (purpose_) {
+    case Purpose::kAlign: {
+      if (++align_steps_ > options_.max_align_steps) {
+        fail("could not align with the floor tags in " + std::to_string(options_.max_align_steps) +
+             " turning steps (last heading " + deg(last_heading_rad_) + ")");
+      }
+      if (!m.valid) {
+        // Paper §3.3: turn step by step until a tag is in view; the direction does not matter.
+        if (search_turned_rad_ > options_.max_search_turn_rad) {
+          fail("no floor tag in view over a full turn (turned " + deg(search_turned_rad_) +
+               "): is the robot at the tag field, and the camera working?");
+        }
+        pulse_dir_ = 1;
+        pulse_s_ = rad_per_pulse_s_ > 0
+                       ? std::clamp(options_.search_step_rad / rad_per_pulse_s_,
+                                    options_.min_pulse_s, options_.max_search_pulse_s)
+                       : options_.max_pulse_s;
+        startPulse(now_s);
+        return;
+      }
+      search_turned_rad_ = 0;
+      if (std::abs(m.heading_rad) < options_.align_tolerance_rad) {
+        if (after_align_ == WheelRunStage::kLeave) {
+          stage_ = WheelRunStage::kLeave;
+          startLeave(now_s);
+        } else {
+          stage_ = WheelRunStage::kIterate;
+          heading_before_drive_ = m.heading_rad;
+          startDrive(now_s, +1, options_.drive_speed_mps);
+        }
+        return;
+      }
+      // Turn towards heading 0: a positive heading is the robot turned counter-clockwise.
+      pulse_dir_ = m.heading_rad > 0 ? -1 : 1;
+      pulse_s_ = rad_per_pulse_s_ > 0 ? std::clamp(0.8 * std::abs(m.heading_rad) / rad_per_pulse_s_,
+                                                   options_.min_pulse_s, options_.max_pulse_s)
+                                      : options_.max_pulse_s;
+      startPulse(now_s);
+      return;
+    }
+    case Purpose::kBeforeDrive:
+      if (!m.valid || std::abs(m.heading_rad) > options_.realign_above_rad) {
+        startAlign(WheelRunStage::kIterate);
+        return;
+      }
+      heading_before_drive_ = m.heading_rad;
+      startDrive(now_s, +1, options_.drive_speed_mps);
+      return;
+    case Purpose::kAfterDrive:
+      if (!m.valid) {
+        ratio_error_ =
+            std::min(options_.initial_ratio_error, 4 * ratio_error_);  // drive shorter next time
+        if (++drives_without_tags_ >= 3) {
+          fail("the floor tags were lost after " + std::to_string(drives_without_tags_) +
+               " drives in a row: the tag field is too short for drive_s, or the robot leaves it");
+        }
+      } else {
+        drives_without_tags_ = 0;
+        last_delta_theta_rad_ = wrapAngle(m.heading_rad - heading_before_drive_);
+        const TrimIteration& it =
+            estimator_.addDrive(last_delta_theta_rad_, drive_left_angle_rad_);  // throws
+        // What is left of the error: the undamped part of the correction, and a quarter of the step
+        // for the model and the measurement (the deadband fit is still settling after the first
+        // drives).
+        if (!it.rejected) {
+          ratio_error_ = std::max(0.002, std::abs(it.ratio_before / it.k_i - it.ratio_after) +
+                                             0.25 * std::abs(it.step));
+        }
+        ++iteration_;
+      }
+      // Paper §3.4: drive back as far, with the ratio of the drive forward (the update counts from
+      // the next drive), then go on. At another speed when fitting the deadband: the second point
+      // of each wheel's line.
+      {
+        const double back_mps =
+            options_.compensate_deadband ? options_.back_speed_mps : options_.drive_speed_mps;
+        const double forward_s = drive_end_s_ - drive_start_forward_s_;
+        const KinematicsParams& p = drive_params_;
+        const double w = back_mps / p.radius;
+        const WheelDuties d = speedsToDuties(p, {w, w});
+        drive_duties_ = d;
+        duties_ = {-d.left, -d.right};
+        drive_sign_ = -1;
+        motion_ = Motion::kDrive;
+        drive_start_s_ = now_s;
+        drive_samples_.clear();
+        motion_end_s_ = drive_end_s_ = now_s + forward_s * options_.drive_speed_mps / back_mps;
+        purpose_ = Purpose::kAfterBack;
+      }
+      return;
+    case Purpose::kAfterForward:
+    case Purpose::kAfterBack:
+    case Purpose::kLeaveDrive:
+      return;
+  }
+}
+
+void WheelRun::startLeave(double now_s) {
+  // Paper §5.1: aligned with the tags, which point towards the lane: drive straight until the last
+  // tag has left the view, then a little further (the camera does not see the floor just ahead).
+  startDrive(now_s, +1, options_.leave_speed_mps);
+  motion_end_s_ = std::numeric_limits<double>::infinity();
+  purpose_ = Purpose::kLeaveDrive;
+  leave_start_left_ = left_;
+  last_tag_seen_s_ = now_s;
+  leave_clear_ = false;
+}
+
+void WheelRun::onSettled(double now_s) {
+  if (stage_ == WheelRunStage::kLeave) {
+    stage_ = WheelRunStage::kDone;
+    motion_ = Motion::kNone;
+    return;
+  }
+  switch (purpose_) {
+    case Purpose::kAlign: {
+      // The step just made: pivoting on the left wheel, the right wheel's turn R·φ_r/L.
+      const double phi = (right_ - pulse_start_right_) * 2 * M_PI / ticks_per_rev_;
+      const double turned =
+          std::abs(options_.kinematics.radius * phi / options_.kinematics.baseline);
+      if (std::abs(right_ - pulse_start_right_) < 2) {
+        turn_duty_boost_ += 0.02;  // the wheel did not move: the guessed deadband was too low
+      } else if (turned > 0) {
+        rad_per_pulse_s_ = turned / pulse_s_;
+      }
+      search_turned_rad_ += turned;
+      startMeasure(Purpose::kAlign, now_s);
+      return;
+    }
+    case Purpose::kAfterForward:
+      drive_left_angle_rad_ = (left_ - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
+      recordDriveForFit();
+      startMeasure(Purpose::kAfterDrive, now_s);
+      return;
+    case Purpose::kAfterBack:
+      recordDriveForFit();
+      if (estimator_.converged()) {
+        startAlign(WheelRunStage::kLeave);
+      } else {
+        startMeasure(Purpose::kBeforeDrive, now_s);
+      }
+      return;
+    default:
+      startMeasure(Purpose::kBeforeDrive, now_s);
+      return;
+  }
+}
+
+WheelDuties WheelRun::update(double now_s) {
+  if (stage_ == WheelRunStage::kFailed || stage_ == WheelRunStage::kDone) return {};
+  if (!started_) {
+    started_ = true;
+    start_s_ = now_s;
+  }
+  last_now_s_ = now_s;
+  if (stage_ == WheelRunStage::kWaitForData) {
+    if (!have_frame_ && now_s - start_s_ > options_.camera_timeout_s) {
+      fail("no camera frame within camera_timeout_s " + formatNumber(options_.camera_timeout_s, 3) +
+           " s");
+    }
+    if (!have_encoders_ && now_s - start_s_ > options_.encoder_timeout_s) {
+      fail("no encoder reading within encoder_timeout_s " +
+           formatNumber(options_.encoder_timeout_s, 3) + " s");
+    }
+    if (!have_frame_ || !have_encoders_) return {};
+    startAlign(WheelRunStage::kIterate);
+  }
+  ++updates_without_frames_;
+  ++updates_without_encoders_;
+  if (updates_without_frames_ > kSilentUpdates &&
+      now_s - measure_from_s_ > options_.camera_timeout_s &&
+      (motion_ == Motion::kMeasure || stage_ == WheelRunStage::kLeave)) {
+    fail("the camera went silent for more than camera_timeout_s " +
+         formatNumber(options_.camera_timeout_s, 3) + " s");
+  }
+  if (updates_without_encoders_ > kSilentUpdates &&
+      now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
+    fail("the encoders went silent for more than encoder_timeout_s " +
+         formatNumber(options_.encoder_timeout_s, 3) + " s");
+  }
+  if (now_s - start_s_ > options_.max_duration_s) {
+    fail("the wheel stage took longer than max_duration_s " +
+         formatNumber(options_.max_duration_s, 4) + " s");
+  }
+  switch (motion_) {
+    case Motion::kPulse:
+      if (now_s >= motion_end_s_) stopMotion(now_s);
+      break;
+    case Motion::kDrive:
+      if (stage_ == WheelRunStage::kLeave) {
+        const double r = options_.kinematics.radius * 2 * M_PI / ticks_per_rev_;
+        const double driven = (left_ - leave_start_left_) * r;
+        if (!leave_clear_ && now_s - last_tag_seen_s_ >= options_.leave_clear_s) {
+          leave_clear_ = true;
+          leave_clear_left_ = left_;
+        }
+        if (leave_clear_ && (left_ - leave_clear_left_) * r >= options_.exit_extra_m) {
+          stopMotion(now_s);
+        } else if (!leave_clear_ && driven > options_.max_leave_m) {
+          fail("still seeing tags after driving " + formatNumber(driven, 3) +
+               " m out of the tag field (max_leave_m)");
+        }
+      } else if (now_s >= motion_end_s_) {
+        stopMotion(now_s);
+        purpose_ = drive_sign_ > 0 ? Purpose::kAfterForward : Purpose::kAfterBack;
+      }
+      break;
+    case Motion::kSettle:
+      if (settled(now_s)) onSettled(now_s);
+      break;
+    case Motion::kMeasure:
+    case Motion::kNone:
+      break;
+  }
+  return duties_;
+}
+
+double WheelRun::progress() const {
+  switch (stage_) {
+    case WheelRunStage::kWaitForData:
+      return 0.0;
+    case WheelRunStage::kAlign:
+      return after_align_ == WheelRunStage::kLeave ? 0.85 : 0.05 + 0.05 * std::min(iteration_, 1);
+    case WheelRunStage::kIterate:
+      return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);
+    case WheelRunStage::kLeave:
+      return 0.9;
+    default:
+      return 1.0;
+  }
+}
+
+std::string WheelRun::describe() const {
+  std::string s = std::string(name(stage_));
+  if (stage_ == WheelRunStage::kAlign) s += " step " + std::to_string(align_steps_);
+  s += ", iteration " + std::to_string(iteration_) + ", k " + formatNumber(estimator_.ratio(), 6) +
+       " (trim " +
+       formatNumber(trimFromSpeedRatio(estimator_.ratio(), options_.kinematics.gain), 4) + ")";
+  if (iteration_ > 0) s += ", last dtheta " + deg(last_delta_theta_rad_);
+  if (std::isfinite(last_heading_rad_)) s += ", heading " + deg(last_heading_rad_);
+  if (fit_left_.valid && fit_right_.valid) {
+    s += ", deadband " + formatNumber(fit_left_.offset, 4) + "/" +
+         formatNumber(fit_right_.offset, 4);
+  }
+  return s;
+}
+
+}  // namespace wheels
+}  // namespace autocal

@@ -1,0 +1,97 @@
+#include "support/wheels_in_sim.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
+
+namespace autocal {
+namespace test {
+
+WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
+                           wheels::WheelRun& run, const WheelsInSimOptions& options) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  sim::Simulation simulation(robot, world, sim::SimulationOptions());
+  sim::RenderOptions render;
+  render.supersampling = robot.camera.supersampling;
+  render.noise_sigma = robot.camera.noise_sigma;
+  render.noise_seed = options.seed;
+  const sim::Renderer renderer(robot.camera, world, render);
+  std::mt19937_64 rng(options.seed);
+
+  WheelsInSim out;
+  out.start_pose = simulation.pose();
+  const double control_dt = 1.0 / options.control_rate_hz;
+  const double frame_dt = 1.0 / robot.camera.rate_hz;
+  const double encoder_dt = 1.0 / robot.encoder_rate_hz;
+  double next_frame = 0, next_encoder = 0, next_path = 0;
+  wheels::WheelRunStage last_stage = run.stage();
+  size_t last_iterations = 0;
+  try {
+    while (simulation.time_s() < options.max_sim_s && !run.done()) {
+      const double t = simulation.time_s();
+      if (t >= next_path) {
+        out.path.push_back(simulation.pose());
+        next_path += 0.1;
+      }
+      if (t >= next_encoder) {
+        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
+                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution, t);
+        next_encoder += encoder_dt;
+      }
+      if (t >= next_frame) {
+        run.noteFrameArrived(t);
+        if (run.wantsFrame(t)) {
+          run.addFrame(t,
+                       renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng));
+          ++out.frames_processed;
+        }
+        next_frame += frame_dt;
+      }
+      const WheelDuties d = run.update(t);
+      simulation.setDuty(d.left, d.right);
+      simulation.advance(control_dt);
+      if (options.trace &&
+          (run.stage() != last_stage || run.estimator().history().size() != last_iterations)) {
+        const Pose2D p = simulation.pose();
+        std::fprintf(stderr, "t %.2f pose (%.3f, %.3f, %.2f deg): %s\n", t, p.x_m, p.y_m,
+                     p.yaw_rad * 180 / M_PI, run.describe().c_str());
+        last_stage = run.stage();
+        last_iterations = run.estimator().history().size();
+      }
+    }
+  } catch (const CalibrationError& e) {
+    out.failure = e.what();
+  }
+  simulation.setDuty(0, 0);
+  out.done = run.done();
+  out.sim_s = simulation.time_s();
+  out.end_pose = simulation.pose();
+  out.iterations = run.estimator().history();
+  out.result = run.result();
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return out;
+}
+
+double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsParams& params,
+                      double speed_mps, double distance_m) {
+  sim::WorldConfig empty;
+  sim::RobotConfig r = robot;
+  sim::Simulation simulation(r, empty, sim::SimulationOptions());
+  const WheelDuties d = wheels::carCmdToDuties(params, speed_mps, 0.0);
+  simulation.setDuty(d.left, d.right);
+  const double max_s = 10.0 * distance_m / speed_mps;
+  while (simulation.time_s() < max_s) {
+    simulation.advance(0.01);
+    const Pose2D p = simulation.pose();
+    if (p.x_m >= distance_m) return std::abs(p.y_m);
+  }
+  return std::nan("");
+}
+
+}  // namespace test
+}  // namespace autocal

@@ -1,0 +1,45 @@
+// The wheel stage (wheels::WheelRun) driven by the simulator's core directly, no ROS, on sim
+// time; and Duckietown's acceptance test (drive 2 m straight, measure the drift) on the
+// simulator's truth. The run never sees the truth; the caller compares.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "autocal/sim/config.h"
+#include "autocal/wheels/kinematics.h"
+#include "autocal/wheels/wheel_run.h"
+
+namespace autocal {
+namespace test {
+
+struct WheelsInSimOptions {
+  double control_rate_hz = 100.0;
+  double max_sim_s = 300.0;
+  uint64_t seed = 1;
+  int max_blur_samples = 8;
+  bool trace = false;  ///< one stderr line per stage change and iteration
+};
+
+struct WheelsInSim {
+  bool done = false;
+  std::string failure;
+  double sim_s = 0, wall_s = 0;
+  int frames_processed = 0;
+  wheels::KinematicsParams result;
+  std::vector<wheels::TrimIteration> iterations;
+  Pose2D start_pose, end_pose;  ///< the truth
+  std::vector<Pose2D> path;     ///< the truth, every 0.1 s
+};
+
+WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
+                           wheels::WheelRun& run, const WheelsInSimOptions& options);
+
+/// Duckietown's acceptance test on the simulator's truth: from rest at the origin facing +x on an
+/// empty floor, command car_cmd (v, 0) through the kinematics `params` until the robot has come
+/// `distance_m` along x; the lateral drift |y| [m] (NaN when it never gets there).
+double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsParams& params,
+                      double speed_mps, double distance_m = 2.0);
+
+}  // namespace test
+}  // namespace autocal

@@ -135,6 +135,19 @@ TEST(MsgConversion, EncodersAndWheelCommands) {
   EXPECT_DOUBLE_EQ(d.right, -0.5);
 }
 
+TEST(MsgConversion, CarCommands) {
+  const auto msg = toCarCmd({0.25, -1.5}, ros::Time(4.5));
+  EXPECT_FLOAT_EQ(msg.v, 0.25f);
+  EXPECT_FLOAT_EQ(msg.omega, -1.5f);
+  EXPECT_EQ(msg.header.stamp, ros::Time(4.5));
+  const wheels::CarCommand back = fromCarCmd(msg);
+  EXPECT_DOUBLE_EQ(back.v_mps, 0.25);
+  EXPECT_DOUBLE_EQ(back.omega_radps, -1.5);
+  dtmsg::Twist2DStamped nan = msg;
+  nan.omega = std::nanf("");
+  EXPECT_TRUE(std::isnan(fromCarCmd(nan).omega_radps)) << "passed on for the node to refuse";
+}
+
 TEST(MsgConversion, TagDetectionRoundTrip) {
   markers::TagDetection t;
   t.id = 17;

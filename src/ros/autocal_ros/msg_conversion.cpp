@@ -116,6 +116,18 @@ dtmsg::WheelsCmdStamped toWheelsCmd(const WheelDuties& duties, const ros::Time& 
   return msg;
 }
 
+wheels::CarCommand fromCarCmd(const dtmsg::Twist2DStamped& msg) {
+  return wheels::CarCommand{msg.v, msg.omega};
+}
+
+dtmsg::Twist2DStamped toCarCmd(const wheels::CarCommand& cmd, const ros::Time& stamp) {
+  dtmsg::Twist2DStamped msg;
+  msg.header.stamp = stamp;
+  msg.v = static_cast<float>(cmd.v_mps);
+  msg.omega = static_cast<float>(cmd.omega_radps);
+  return msg;
+}
+
 namespace {
 geometry_msgs::Quaternion rotationToQuaternion(const cv::Matx33d& r) {
   // Shepperd's method: numerically safe for every rotation.

@@ -15,6 +15,7 @@
 #include "autocal/markers/tag_detection.h"
 #include "autocal/pose2d.h"
 #include "autocal/sensors.h"
+#include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msgs.h"
 
 namespace autocal {
@@ -42,6 +43,9 @@ EncoderReading fromEncoderMsg(const dtmsg::WheelEncoderStamped& msg);
 dtmsg::WheelEncoderStamped toEncoderMsg(const EncoderReading& reading, const std::string& frame_id);
 WheelDuties fromWheelsCmd(const dtmsg::WheelsCmdStamped& msg);
 dtmsg::WheelsCmdStamped toWheelsCmd(const WheelDuties& duties, const ros::Time& stamp);
+/// v and omega as they are (a non-finite value is the caller's to refuse).
+wheels::CarCommand fromCarCmd(const dtmsg::Twist2DStamped& msg);
+dtmsg::Twist2DStamped toCarCmd(const wheels::CarCommand& cmd, const ros::Time& stamp);
 
 // --- markers
 markers::TagDetection fromTagDetectionMsg(const dtmsg::AprilTagDetection& msg);

@@ -20,3 +20,24 @@ if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_wheel_run_in_sim SOURCES test/wheels/test_wheel_run_in_sim.cpp
                      LIBS autocal_test_support autocal_core autocal_sim_core)
 endif()
+
+# The robot's wheel stage: aligns with the floor tags, iterates the trim, leaves the tag field.
+add_executable(wheel_calibration_node
+  src/nodes/wheel_calibration/wheel_calibration_node.cpp
+  src/nodes/wheel_calibration/wheel_calibration_node_main.cpp)
+target_link_libraries(wheel_calibration_node autocal_ros)
+target_compile_options(wheel_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(wheel_calibration_node)
+
+if(CATKIN_ENABLE_TESTING)
+  # The camera and wheel stages end to end in the simulator (wheel_node.test), judged by the truth.
+  add_executable(test_wheel_node EXCLUDE_FROM_ALL test/wheels/test_wheel_node.cpp)
+  target_link_libraries(test_wheel_node autocal_test_support autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_wheel_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_wheel_node)
+  add_dependencies(tests test_wheel_node)
+  # Not yet in `make test`: through ROS at real_time_factor 2 the stage calibrates (drift 0.7-1.1 cm
+  # over 2 m at 0.15-0.4 m/s) but takes 11 drives and ended its exit after 0.24 m; at 5 the node
+  # falls behind the simulator and the deadband fit's time windows miss. Run it by hand:
+  #   rostest autocal wheel_node.test real_time_factor:=2
+endif()

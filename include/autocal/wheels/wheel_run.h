@@ -68,15 +68,13 @@ struct WheelRunOptions {
   double align_tolerance_rad = 0.035;
   /// Before a drive, |heading| above this makes the robot re-align first [rad].
   double realign_above_rad = 0.15;
-  /// Turning steps: the driving wheel's duty above its offset [1], the longest pulse (paper §3.2:
-  /// 0.1 s) and the shortest [s].
+  /// Turning steps: the driving wheel's duty above its offset [1]; a step ends when the encoder
+  /// shows the step's turn, or after max_pulse_s [s] (a wheel that did not move raises the duty).
   double turn_duty_margin = 0.06;
-  double max_pulse_s = 0.1;
-  double min_pulse_s = 0.02;
-  /// While no tag is in view the steps are longer: about this turn each [rad] (well below the field
-  /// of view, so no tag is stepped over), pulses up to max_search_pulse_s [s].
+  double max_pulse_s = 1.0;
+  /// While no tag is in view, each step turns about this much [rad] (well below the field of view,
+  /// so no tag is stepped over); once one is, 0.8 of the heading.
   double search_step_rad = 0.25;
-  double max_search_pulse_s = 0.6;
   /// Turning without seeing a tag for more than this fails ("no tag in a full turn") [rad].
   double max_search_turn_rad = 7.0;
   /// Turning steps in one alignment before it fails.
@@ -95,6 +93,7 @@ struct WheelRunOptions {
   /// seeing tags after max_leave_m [m].
   double leave_speed_mps = 0.2;
   double leave_clear_s = 0.5;
+  int leave_clear_frames = 10;
   double exit_extra_m = 0.3;
   double max_leave_m = 3.0;
 
@@ -161,7 +160,7 @@ class WheelRun {
   void fail(const std::string& why);
   void startAlign(WheelRunStage then);
   void startMeasure(Purpose purpose, double now_s);
-  void startPulse(double now_s);
+  void startPulse(double now_s, double turn_rad);
   void startDrive(double now_s, int sign, double speed_mps);
   void stopMotion(double now_s);
   bool settled(double now_s) const;
@@ -215,10 +214,9 @@ class WheelRun {
   // aligning
   int align_steps_ = 0;
   double search_turned_rad_ = 0;
-  double pulse_s_ = 0.1;
+  int pulse_ticks_ = 1;
   int pulse_dir_ = 0;  // +1 ccw, -1 cw
   int pulse_start_right_ = 0;
-  double rad_per_pulse_s_ = 0;
   double turn_duty_boost_ = 0;
 
   // iterating / leaving

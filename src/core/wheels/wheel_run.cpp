@@ -67,12 +67,10 @@ void WheelRunOptions::validate() const {
     throw ConfigError("realign_above_rad: must exceed align_tolerance_rad");
   if (!(turn_duty_margin > 0 && turn_duty_margin < 0.5))
     throw ConfigError("turn_duty_margin: must be within (0, 0.5)");
-  if (!(min_pulse_s > 0 && max_pulse_s >= min_pulse_s && max_pulse_s <= 1))
-    throw ConfigError("min_pulse_s/max_pulse_s: need 0 < min <= max <= 1 [s]");
+  if (!(max_pulse_s > 0 && max_pulse_s <= 5))
+    throw ConfigError("max_pulse_s: must be within (0, 5] [s]");
   if (!(search_step_rad > 0 && search_step_rad < 1.0))
     throw ConfigError("search_step_rad: must be within (0, 1) [rad]");
-  if (!(max_search_pulse_s >= max_pulse_s && max_search_pulse_s <= 2))
-    throw ConfigError("max_search_pulse_s: must be within [max_pulse_s, 2] [s]");
   if (!(max_search_turn_rad > 0)) throw ConfigError("max_search_turn_rad: must be > 0");
   if (max_align_steps < 1) throw ConfigError("max_align_steps: must be >= 1");
   if (!(still_s > 0) || !(settle_s >= 0))
@@ -82,6 +80,7 @@ void WheelRunOptions::validate() const {
   if (!(leave_speed_mps > 0 && leave_speed_mps <= kinematics.v_max))
     throw ConfigError("leave_speed_mps: must be within (0, v_max]");
   if (!(leave_clear_s > 0)) throw ConfigError("leave_clear_s: must be > 0 [s]");
+  if (leave_clear_frames < 1) throw ConfigError("leave_clear_frames: must be >= 1");
   if (!(exit_extra_m >= 0)) throw ConfigError("exit_extra_m: must be >= 0 [m]");
   if (!(max_leave_m > exit_extra_m)) throw ConfigError("max_leave_m: must exceed exit_extra_m [m]");
   if (!(camera_timeout_s > 0 && encoder_timeout_s > 0 && max_duration_s > 0))
@@ -94,7 +93,6 @@ WheelRun::WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intri
       last_heading_rad_(std::numeric_limits<double>::quiet_NaN()) {
   detector_.reset(new markers::TagDetector(options_.detector, intrinsics));
   detector_->setFloorNormal(options_.mount.floorUpInCamera());
-  pulse_s_ = options_.max_pulse_s;
   ratio_error_ = options_.initial_ratio_error;
 }
 
@@ -179,15 +177,21 @@ void WheelRun::startAlign(WheelRunStage then) {
   startMeasure(Purpose::kAlign, last_now_s_);
 }
 
-void WheelRun::startPulse(double now_s) {
+void WheelRun::startPulse(double now_s, double turn_rad) {
   // Paper §3.2–3.3: one wheel turns, the other stands (here the right wheel drives and the robot
-  // pivots on the left wheel, so it stays where it is over any number of steps).
+  // pivots on the left wheel, so it stays where it is over any number of steps). The pulse ends
+  // when the right encoder has turned the wheel by the step's angle, R·φ/L = turn (at least one
+  // tick), not after a fixed time: a command's delay (a loaded machine, a simulator ahead of real
+  // time) would change a timed step's length; max_pulse_s bounds it.
   const double offset = std::max(driveParams().deadband_right, options_.kinematics.deadband_right);
   const double duty = std::min(0.9, offset + options_.turn_duty_margin + turn_duty_boost_);
   duties_ = {0.0, pulse_dir_ * duty};
   motion_ = Motion::kPulse;
   pulse_start_right_ = right_;
-  motion_end_s_ = now_s + pulse_s_;
+  const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
+  pulse_ticks_ =
+      std::max(1, static_cast<int>(std::lround(wheel_rad * ticks_per_rev_ / (2 * M_PI))));
+  motion_end_s_ = now_s + options_.max_pulse_s;
   purpose_ = Purpose::kAlign;
 }
 
@@ -260,7 +264,14 @@ void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
   std::vector<TagSighting> frame;
   for (const auto& d : last_detections_) frame.push_back(sightTag(d, options_.mount));
   if (stage_ == WheelRunStage::kLeave && motion_ == Motion::kDrive) {
-    if (!last_detections_.empty()) last_tag_seen_s_ = stamp_s;
+    // Out of the tag field = no tag in leave_clear_frames processed frames in a row AND for
+    // leave_clear_s on the caller's clock (a node that falls behind processes fewer frames).
+    if (!last_detections_.empty()) {
+      last_tag_seen_s_ = std::max(stamp_s, last_now_s_);
+      frames_without_tags_ = 0;
+    } else {
+      ++frames_without_tags_;
+    }
     return;
   }
   if (motion_ != Motion::kMeasure || stamp_s < measure_from_s_) return;
@@ -273,7 +284,8 @@ void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
   const int with_tags = frames_in_measurement_ - frames_without_tags_;
   if (with_tags >= options_.heading_frames ||
       frames_without_tags_ >= options_.max_frames_without_tags) {
-    onMeasured(stamp_s);
+    // Motions start on the caller's clock: a frame arrives a while after its stamp.
+    onMeasured(std::max(stamp_s, last_now_s_));
   }
 }
 
@@ -293,11 +305,7 @@ void WheelRun::onMeasured(double now_s) {
                "): is the robot at the tag field, and the camera working?");
         }
         pulse_dir_ = 1;
-        pulse_s_ = rad_per_pulse_s_ > 0
-                       ? std::clamp(options_.search_step_rad / rad_per_pulse_s_,
-                                    options_.min_pulse_s, options_.max_search_pulse_s)
-                       : options_.max_pulse_s;
-        startPulse(now_s);
+        startPulse(now_s, options_.search_step_rad);
         return;
       }
       search_turned_rad_ = 0;
@@ -314,10 +322,7 @@ void WheelRun::onMeasured(double now_s) {
       }
       // Turn towards heading 0: a positive heading is the robot turned counter-clockwise.
       pulse_dir_ = m.heading_rad > 0 ? -1 : 1;
-      pulse_s_ = rad_per_pulse_s_ > 0 ? std::clamp(0.8 * std::abs(m.heading_rad) / rad_per_pulse_s_,
-                                                   options_.min_pulse_s, options_.max_pulse_s)
-                                      : options_.max_pulse_s;
-      startPulse(now_s);
+      startPulse(now_s, 0.8 * std::abs(m.heading_rad));
       return;
     }
     case Purpose::kBeforeDrive:
@@ -385,6 +390,7 @@ void WheelRun::startLeave(double now_s) {
   purpose_ = Purpose::kLeaveDrive;
   leave_start_left_ = left_;
   last_tag_seen_s_ = now_s;
+  frames_without_tags_ = 0;
   leave_clear_ = false;
 }
 
@@ -400,10 +406,8 @@ void WheelRun::onSettled(double now_s) {
       const double phi = (right_ - pulse_start_right_) * 2 * M_PI / ticks_per_rev_;
       const double turned =
           std::abs(options_.kinematics.radius * phi / options_.kinematics.baseline);
-      if (std::abs(right_ - pulse_start_right_) < 2) {
+      if (right_ == pulse_start_right_) {
         turn_duty_boost_ += 0.02;  // the wheel did not move: the guessed deadband was too low
-      } else if (turned > 0) {
-        rad_per_pulse_s_ = turned / pulse_s_;
       }
       search_turned_rad_ += turned;
       startMeasure(Purpose::kAlign, now_s);
@@ -466,13 +470,15 @@ WheelDuties WheelRun::update(double now_s) {
   }
   switch (motion_) {
     case Motion::kPulse:
-      if (now_s >= motion_end_s_) stopMotion(now_s);
+      if (now_s >= motion_end_s_ || std::abs(right_ - pulse_start_right_) >= pulse_ticks_)
+        stopMotion(now_s);
       break;
     case Motion::kDrive:
       if (stage_ == WheelRunStage::kLeave) {
         const double r = options_.kinematics.radius * 2 * M_PI / ticks_per_rev_;
         const double driven = (left_ - leave_start_left_) * r;
-        if (!leave_clear_ && now_s - last_tag_seen_s_ >= options_.leave_clear_s) {
+        if (!leave_clear_ && now_s - last_tag_seen_s_ >= options_.leave_clear_s &&
+            frames_without_tags_ >= options_.leave_clear_frames) {
           leave_clear_ = true;
           leave_clear_left_ = left_;
         }

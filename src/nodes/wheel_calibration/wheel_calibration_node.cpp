@@ -1,0 +1,301 @@
+#include "wheel_calibration_node.h"
+
+#include <camera_calibration_parsers/parse.h>
+
+#include <cmath>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/params.h"
+
+namespace autocal {
+namespace wheels {
+
+void WheelCalibrationNodeOptions::validate() const {
+  auto check = [](bool ok, const std::string& key, const std::string& what) {
+    if (!ok) throw ConfigError("~" + key + ": " + what);
+  };
+  check(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+        "must be a non-empty name without '/'");
+  check(!calibration_root.empty(), "calibration_root", "must not be empty");
+  check(image_transport == "compressed" || image_transport == "raw", "image_transport",
+        "must be 'compressed' or 'raw', not '" + image_transport + "'");
+  check(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",
+        "must be >= 20 Hz");
+  check(std::isfinite(camera_stage_wait_s) && camera_stage_wait_s >= 0, "camera_stage_wait_s",
+        "must be >= 0");
+  check(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s", "must be >= 0");
+  check(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
+  check(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
+        "must be < 0.9 (negative: automatic)");
+  try {
+    run.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string("~") + e.what());
+  }
+}
+
+namespace {
+
+std::string defaultVeh(const ros::NodeHandle& nh) {
+  std::string ns = nh.getNamespace();
+  while (!ns.empty() && ns.back() == '/') ns.pop_back();
+  const size_t slash = ns.rfind('/');
+  const std::string last = slash == std::string::npos ? ns : ns.substr(slash + 1);
+  return last.empty() ? "autobot" : last;
+}
+
+WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
+  const ros_layer::ParamReader p(pnh, "wheel_calibration_node");
+  WheelCalibrationNodeOptions o;
+  o.veh = defaultVeh(nh);
+  p.get("veh", o.veh);
+  p.get("calibration_root", o.calibration_root);
+  p.get("intrinsics_file", o.intrinsics_file);
+  p.get("camera_stage_wait_s", o.camera_stage_wait_s);
+  p.get("image_transport", o.image_transport);
+  p.get("control_rate_hz", o.control_rate_hz);
+  p.get("connect_wait_s", o.connect_wait_s);
+  p.get("status_rate_hz", o.status_rate_hz);
+  p.get("update_kinematics_node", o.update_kinematics_node);
+  p.get("deadband_guess", o.deadband_guess);
+
+  WheelRunOptions& r = o.run;
+  p.get("tag_size_m", r.detector.tag_size_m);
+  p.get("tag_decimate", r.detector.decimate);
+  p.get("tag_threads", r.detector.threads);
+  p.get("tag_refine_edges", r.detector.refine_edges);
+  p.get("tag_max_hamming", r.detector.max_hamming);
+  p.get("tag_min_decision_margin", r.detector.min_decision_margin);
+  p.get("max_tag_tilt_rad", r.heading.max_tilt_rad);
+  p.get("tag_outlier_rad", r.heading.outlier_rad);
+  p.get("max_tag_distance_m", r.heading.max_distance_m);
+  p.get("prefer_tag_distance_m", r.heading.prefer_distance_m);
+  p.get("camera_height_m", r.mount.height_m);
+  p.get("camera_pitch_rad", r.mount.pitch_rad);
+  p.get("camera_x_m", r.mount.x_m);
+  p.get("camera_y_m", r.mount.y_m);
+  p.get("min_update", r.trim.min_update);
+  p.get("ignored_to_converge", r.trim.ignored_to_converge);
+  p.get("damping", r.trim.damping);
+  p.get("full_step_above", r.trim.full_step_above);
+  p.get("max_iterations", r.trim.max_iterations);
+  p.get("compensate_deadband", r.compensate_deadband);
+  p.get("drive_speed_mps", r.drive_speed_mps);
+  p.get("back_speed_mps", r.back_speed_mps);
+  p.get("drive_s", r.drive_s);
+  p.get("min_drive_s", r.min_drive_s);
+  p.get("max_drive_turn_rad", r.max_drive_turn_rad);
+  p.get("align_tolerance_rad", r.align_tolerance_rad);
+  p.get("realign_above_rad", r.realign_above_rad);
+  p.get("turn_duty_margin", r.turn_duty_margin);
+  p.get("max_search_turn_rad", r.max_search_turn_rad);
+  p.get("heading_frames", r.heading_frames);
+  p.get("leave_speed_mps", r.leave_speed_mps);
+  p.get("leave_clear_s", r.leave_clear_s);
+  p.get("exit_extra_m", r.exit_extra_m);
+  p.get("max_leave_m", r.max_leave_m);
+  p.get("camera_timeout_s", r.camera_timeout_s);
+  p.get("encoder_timeout_s", r.encoder_timeout_s);
+  p.get("max_duration_s", r.max_duration_s);
+  o.validate();
+  return o;
+}
+
+double figure(const autocal::CalibrationStatus& msg, const std::string& name) {
+  for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
+    if (msg.figure_names[i] == name) return msg.figure_values[i];
+  return -1;
+}
+
+}  // namespace
+
+WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+  kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
+  before_ = readKinematicsFileOrDefaults(kinematics_path_);  // a malformed file is an error
+  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+  detections_pub_ =
+      nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);
+  if (options_.intrinsics_file.empty()) {
+    status_sub_ = nh_.subscribe("calibration/status", 10, &WheelCalibrationNode::onStatus, this);
+  }
+  status_.running("wheels/wait", 0,
+                  options_.intrinsics_file.empty() ? "waiting for the camera stage"
+                                                   : "waiting for the camera and the encoders");
+}
+
+void WheelCalibrationNode::onStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
+  if (msg->phase.rfind("camera/", 0) != 0) return;  // our own and other stages' messages
+  if (msg->state == autocal::CalibrationStatus::STATE_FAILED) {
+    camera_failure_ = msg->failure_reason.empty() ? msg->text : msg->failure_reason;
+  } else if (msg->state == autocal::CalibrationStatus::STATE_DONE &&
+             msg->text.rfind("wrote ", 0) == 0) {
+    camera_file_ = msg->text.substr(6);
+    camera_min_duty_left_ = figure(*msg, "min_duty_left_forward");
+    camera_min_duty_right_ = figure(*msg, "min_duty_right_forward");
+  }
+}
+
+void WheelCalibrationNode::waitForCameraStage() {
+  if (!options_.intrinsics_file.empty()) return;
+  const ros::WallTime start = ros::WallTime::now();
+  ROS_INFO("wheel_calibration_node: waiting for the camera stage's DONE on %s",
+           status_.topic().c_str());
+  while (ros_layer::ok() && camera_file_.empty()) {
+    ros::spinOnce();
+    if (!camera_failure_.empty())
+      throw CalibrationError("the camera stage failed: " + camera_failure_);
+    if (options_.camera_stage_wait_s > 0 &&
+        (ros::WallTime::now() - start).toSec() > options_.camera_stage_wait_s) {
+      throw CalibrationError("no DONE from the camera stage within ~camera_stage_wait_s " +
+                             formatNumber(options_.camera_stage_wait_s, 4) +
+                             " s, and no ~intrinsics_file");
+    }
+    ros::WallDuration(0.02).sleep();
+  }
+  options_.intrinsics_file = camera_file_;
+  status_sub_.shutdown();
+}
+
+void WheelCalibrationNode::connect() {
+  // Inputs first, the wheels last (a simulator started with wait_for_controller holds its clock
+  // until a wheels_cmd publisher appears). Wall time: a held clock does not move.
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
+  while (ros_layer::ok() && ros::WallTime::now() < end &&
+         (frames_->publishers() == 0 || !encoders_->connected())) {
+    ros::WallDuration(0.01).sleep();
+  }
+  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+}
+
+void WheelCalibrationNode::publishDetections(const ros::Time& stamp) {
+  if (detections_pub_.getNumSubscribers() == 0) return;
+  dtmsg::AprilTagDetectionArray msg;
+  msg.header.stamp = stamp;
+  for (const auto& d : run_->lastDetections())
+    msg.detections.push_back(ros_layer::toTagDetectionMsg(d));
+  detections_pub_.publish(msg);
+}
+
+void WheelCalibrationNode::publishStatus(bool force) {
+  const std::string phase = std::string("wheels/") + name(run_->stage());
+  const ros::Time now = ros::Time::now();
+  if (!force && phase == last_phase_ &&
+      (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
+    return;
+  const auto& hist = run_->estimator().history();
+  if (phase != last_phase_ || hist.size() != last_drives_) {
+    ROS_INFO("wheel_calibration_node: %s: %s", phase.c_str(), run_->describe().c_str());
+    last_drives_ = hist.size();
+  }
+  last_phase_ = phase;
+  last_status_ = now;
+  const auto& h = run_->estimator().history();
+  status_.running(
+      phase, run_->progress(), run_->describe(),
+      {{"iteration", static_cast<double>(h.size())},
+       {"k", run_->estimator().ratio()},
+       {"trim", run_->result().trim},
+       {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
+       {"heading_rad", std::isfinite(run_->lastHeadingRad()) ? run_->lastHeadingRad() : 0.0},
+       {"frames_dropped", static_cast<double>(frames_->dropped())},
+       {"elapsed_s", run_->elapsedS()}});
+}
+
+void WheelCalibrationNode::run() {
+  waitForCameraStage();
+  if (!ros_layer::ok()) return;
+  sensor_msgs::CameraInfo info;
+  std::string camera_name;
+  if (!camera_calibration_parsers::readCalibration(options_.intrinsics_file, camera_name, info) ||
+      info.K[0] <= 0) {
+    throw ConfigError("the camera intrinsics '" + options_.intrinsics_file +
+                      "' cannot be read (the wheel stage needs the calibrated camera)");
+  }
+  const CameraIntrinsics intrinsics = ros_layer::fromCameraInfo(info);
+  WheelRunOptions r = options_.run;
+  r.kinematics = before_;
+  double guess_left = options_.deadband_guess, guess_right = options_.deadband_guess;
+  if (guess_left < 0) {
+    guess_left = camera_min_duty_left_ >= 0 ? camera_min_duty_left_ : before_.deadband_left;
+    guess_right = camera_min_duty_right_ >= 0 ? camera_min_duty_right_ : before_.deadband_right;
+  }
+  r.kinematics.deadband_left = guess_left;
+  r.kinematics.deadband_right = guess_right;
+  ROS_INFO(
+      "wheel_calibration_node: intrinsics %s (fx %.1f), kinematics %s, deadband guess %.3f/%.3f",
+      options_.intrinsics_file.c_str(), intrinsics.fx, kinematics_path_.c_str(), guess_left,
+      guess_right);
+  run_ = std::make_unique<WheelRun>(r, intrinsics);
+
+  frames_ = std::make_unique<ros_layer::FrameInput>(
+      nh_, options_.image_transport, "wheel_calibration_node",
+      [this](const ros::Time& stamp) {
+        frames_seen_ = true;
+        run_->noteFrameArrived(ros::Time::now().toSec());
+        return run_->wantsFrame(stamp.toSec());
+      },
+      [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
+        run_->addFrame(stamp.toSec(), image);
+        publishDetections(stamp);
+      },
+      &error_);
+  frames_->holdToSize(intrinsics.imageSize());
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int resolution) {
+        encoders_seen_ = true;
+        run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
+      },
+      &error_);
+  connect();
+  ros::Rate rate(options_.control_rate_hz);
+  while (ros_layer::ok() && !run_->done()) {
+    frames_seen_ = encoders_seen_ = false;
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    const double now = ros::Time::now().toSec();
+    if (frames_seen_) run_->noteFrameArrived(now);
+    if (encoders_seen_) run_->noteEncodersArrived(now);
+    const WheelDuties duties = run_->update(now);
+    wheels_.command(duties.left, duties.right);
+    publishStatus(false);
+    rate.sleep();
+  }
+  if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
+  wheels_.stop();
+  finish();
+}
+
+void WheelCalibrationNode::finish() {
+  const KinematicsParams result = run_->result();
+  status_.running("wheels/write", 0.98, run_->describe());
+  writeKinematicsFile(kinematics_path_, result);  // validates first; throws on failure
+  if (options_.update_kinematics_node) {
+    // The running kinematics node polls its parameters: the new trim applies without a restart.
+    nh_.setParam("kinematics_node/trim", result.trim);
+    nh_.setParam("kinematics_node/deadband_left", result.deadband_left);
+    nh_.setParam("kinematics_node/deadband_right", result.deadband_right);
+  }
+  const auto& h = run_->estimator().history();
+  ROS_INFO(
+      "wheel_calibration_node: wrote %s: trim %.4f (was %.4f), k %.5f, deadband %.4f/%.4f, %zu "
+      "drives, %.1f s",
+      kinematics_path_.c_str(), result.trim, before_.trim, run_->estimator().ratio(),
+      result.deadband_left, result.deadband_right, h.size(), run_->elapsedS());
+  status_.done("wheels/write", "wrote " + kinematics_path_,
+               {{"trim", result.trim},
+                {"trim_before", before_.trim},
+                {"k", run_->estimator().ratio()},
+                {"deadband_left", result.deadband_left},
+                {"deadband_right", result.deadband_right},
+                {"drives", static_cast<double>(h.size())},
+                {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
+                {"frames_dropped", static_cast<double>(frames_->dropped())},
+                {"elapsed_s", run_->elapsedS()}});
+}
+
+}  // namespace wheels
+}  // namespace autocal

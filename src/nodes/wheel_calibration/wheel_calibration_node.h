@@ -1,0 +1,89 @@
+// wheel_calibration_node — the robot calibrates its wheels by itself (paper 000 §3.3–3.4, §5.1):
+// it waits for the camera stage's DONE on calibration/status (or starts at once with
+// ~intrinsics_file), turns one wheel at a time until it is aligned with the floor tags, drives
+// forward and back while the tags' heading change refines the trim, fits each wheel's deadband
+// from its encoder, leaves the tag field, and writes kinematics/<veh>.yaml (wheels::WheelRun does
+// the work; this class only wires ROS to it). README "Wheel calibration node" lists the parameters.
+//
+// Subscribes (relative to the robot's namespace): calibration/status (the camera stage's hand-off),
+// camera_node/image/compressed (or image/raw), left_wheel_encoder_node/tick,
+// right_wheel_encoder_node/tick. Publishes wheels_driver_node/wheels_cmd, calibration/status
+// (phase wheels/<step>), apriltag_detector_node/detections (the tags of each processed frame).
+// On success writes the file, sets the running kinematics_node's parameters, publishes DONE whose
+// text is "wrote <path>", and returns; every failure is an exception for runNode's failure path.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <exception>
+#include <memory>
+#include <string>
+
+#include "autocal/wheels/wheel_run.h"
+#include "autocal_ros/msgs.h"
+#include "autocal_ros/node_runtime.h"
+#include "autocal_ros/sensor_inputs.h"
+
+namespace autocal {
+namespace wheels {
+
+struct WheelCalibrationNodeOptions {
+  std::string veh;  ///< default: the last component of the node's namespace
+  std::string calibration_root = "/data/config/calibrations";
+  /// A camera_info YAML to start with at once; empty: wait for the camera stage's DONE and use the
+  /// file it names.
+  std::string intrinsics_file;
+  /// How long to wait for the camera stage [s]; 0: no limit.
+  double camera_stage_wait_s = 0;
+  std::string image_transport = "compressed";
+  double control_rate_hz = 50;
+  double connect_wait_s = 5.0;
+  double status_rate_hz = 2.0;
+  /// Set the running kinematics_node's trim and deadband parameters to the result.
+  bool update_kinematics_node = true;
+  /// First guess of each wheel's deadband [duty]; negative: the camera stage's minimum moving duty
+  /// (its DONE figures), else the kinematics file's offsets.
+  double deadband_guess = -1;
+  WheelRunOptions run;
+
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+class WheelCalibrationNode {
+ public:
+  WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  /// Runs the stage to its end; returns after DONE, throws on failure.
+  void run();
+
+ private:
+  void onStatus(const autocal::CalibrationStatus::ConstPtr& msg);
+  void waitForCameraStage();
+  void connect();
+  void publishStatus(bool force);
+  void publishDetections(const ros::Time& stamp);
+  void finish();
+
+  ros::NodeHandle nh_, pnh_;
+  WheelCalibrationNodeOptions options_;
+  std::unique_ptr<WheelRun> run_;
+  ros_layer::StatusPublisher status_;
+  ros_layer::WheelsCommander wheels_;
+  std::unique_ptr<ros_layer::FrameInput> frames_;
+  std::unique_ptr<ros_layer::EncoderInput> encoders_;
+  ros::Subscriber status_sub_;
+  ros::Publisher detections_pub_;
+  std::string camera_file_;  ///< from the camera stage's DONE
+  double camera_min_duty_left_ = -1, camera_min_duty_right_ = -1;
+  std::string camera_failure_;
+  bool frames_seen_ = false, encoders_seen_ = false;
+  std::exception_ptr error_;
+  ros::Time last_status_;
+  std::string last_phase_;
+  size_t last_drives_ = 0;
+  KinematicsParams before_;
+  std::string kinematics_path_;
+};
+
+}  // namespace wheels
+}  // namespace autocal

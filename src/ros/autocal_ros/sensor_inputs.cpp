@@ -1,0 +1,92 @@
+#include "autocal_ros/sensor_inputs.h"
+
+#include <cv_bridge/cv_bridge.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "autocal/io/format.h"
+#include "autocal_ros/msg_conversion.h"
+
+namespace autocal {
+namespace ros_layer {
+
+FrameInput::FrameInput(ros::NodeHandle nh, const std::string& transport,
+                       const std::string& node_name, Wanted wanted, Handler handler,
+                       std::exception_ptr* error)
+    : node_name_(node_name),
+      wanted_(std::move(wanted)),
+      handler_(std::move(handler)),
+      error_(error) {
+  if (transport == "compressed") {
+    sub_ = nh.subscribe("camera_node/image/compressed", 2, &FrameInput::onCompressed, this);
+  } else {
+    sub_ = nh.subscribe("camera_node/image/raw", 2, &FrameInput::onRaw, this);
+  }
+}
+
+void FrameInput::drop(const std::string& why) {
+  ++dropped_;
+  ROS_WARN_THROTTLE(5, "%s: dropped a frame: %s (%d so far)", node_name_.c_str(), why.c_str(),
+                    dropped_);
+}
+
+void FrameInput::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
+  if (*error_ || !wanted_(msg->header.stamp)) return;
+  cv::Mat image;
+  if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) return drop("the JPEG does not decode");
+  handle(msg->header.stamp, image, "compressed@" + formatNumber(msg->header.stamp.toSec(), 6));
+}
+
+void FrameInput::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
+  if (*error_ || !wanted_(msg->header.stamp)) return;
+  cv::Mat image;
+  try {
+    image = cv_bridge::toCvCopy(msg, "mono8")->image;
+  } catch (const cv_bridge::Exception& e) {
+    return drop(e.what());
+  }
+  handle(msg->header.stamp, image, "raw@" + formatNumber(msg->header.stamp.toSec(), 6));
+}
+
+void FrameInput::handle(const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
+  // The size camera_info gives, else the first frame's: a frame of another size is dropped (and
+  // never becomes the size the others are held to).
+  if (size_.area() > 0 && image.size() != size_) {
+    return drop("it is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                ", the camera's frames are " + std::to_string(size_.width) + "x" +
+                std::to_string(size_.height));
+  }
+  if (size_.area() == 0) size_ = image.size();
+  try {
+    handler_(stamp, image, source);
+  } catch (...) {
+    *error_ = std::current_exception();
+  }
+}
+
+EncoderInput::EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error)
+    : handler_(std::move(handler)), error_(error) {
+  left_sub_ = nh.subscribe<dtmsg::WheelEncoderStamped>(
+      "left_wheel_encoder_node/tick", 50,
+      [this](const dtmsg::WheelEncoderStamped::ConstPtr& m) { on(m, true); });
+  right_sub_ = nh.subscribe<dtmsg::WheelEncoderStamped>(
+      "right_wheel_encoder_node/tick", 50,
+      [this](const dtmsg::WheelEncoderStamped::ConstPtr& m) { on(m, false); });
+}
+
+void EncoderInput::on(const dtmsg::WheelEncoderStamped::ConstPtr& msg, bool left) {
+  if (*error_) return;
+  try {
+    const EncoderReading r = fromEncoderMsg(*msg);
+    (left ? left_ : right_) = r.ticks;
+    (left ? have_left_ : have_right_) = true;
+    resolution_ = r.ticks_per_revolution;
+    if (valid()) handler_(msg->header.stamp, left_, right_, resolution_);
+  } catch (...) {
+    *error_ = std::current_exception();
+  }
+}
+
+}  // namespace ros_layer
+}  // namespace autocal

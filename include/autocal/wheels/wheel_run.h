@@ -63,6 +63,9 @@ struct WheelRunOptions {
   double motor_settle_s = 0.3;
   /// Only drives whose steady part lasts this long enter the motor fit [s].
   double min_fit_window_s = 0.8;
+  /// Drives (forward and back alternate, at the two speeds) whose rates make the fit; later drives
+  /// leave it as it is, so that the trim converges against fixed offsets.
+  int fit_drives = 6;
 
   /// |heading| below which the robot counts as aligned with the tags [rad].
   double align_tolerance_rad = 0.035;
@@ -160,9 +163,10 @@ class WheelRun {
   void fail(const std::string& why);
   void startAlign(WheelRunStage then);
   void startMeasure(Purpose purpose, double now_s);
-  void startPulse(double now_s, double turn_rad);
+  void startPulse(double turn_rad);
   void startDrive(double now_s, int sign, double speed_mps);
   void stopMotion(double now_s);
+  void startMotionClock(double length_s);
   bool settled(double now_s) const;
   void onMeasured(double now_s);
   void onSettled(double now_s);
@@ -191,15 +195,18 @@ class WheelRun {
   // motion
   WheelDuties duties_;
   double motion_end_s_ = 0, stop_s_ = -1e9;
+  double motion_len_s_ = 0;
+  bool motion_clock_started_ = true;
   int drive_sign_ = 0;
   double drive_speed_mps_ = 0;
   WheelDuties drive_duties_;
   KinematicsParams drive_params_;  // what the last forward drive drove with
-  double drive_start_s_ = 0, drive_end_s_ = 0, drive_start_forward_s_ = 0;
+  double drive_start_s_ = 0, drive_end_s_ = 0;
+  double forward_s_ = 0;  // its commanded length
   double ratio_error_ = 0;
-  int drive_start_left_ = 0;
+  int drive_start_left_ = 0, drive_start_right_ = 0;
   std::vector<std::array<double, 3>> drive_samples_;  // stamp, left ticks, right ticks
-  std::vector<std::array<double, 2>> fit_points_left_, fit_points_right_;  // duty, rate
+  std::vector<std::array<double, 3>> fit_points_left_, fit_points_right_;  // duty, rate, weight
   MotorFit fit_left_, fit_right_;
 
   // measuring

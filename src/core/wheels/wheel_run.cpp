@@ -53,6 +53,7 @@ void WheelRunOptions::validate() const {
   if (!(drive_s > 0.3 && drive_s < 20)) throw ConfigError("drive_s: must be within (0.3, 20) [s]");
   if (!(min_fit_window_s > 0 && min_fit_window_s <= drive_s - motor_settle_s))
     throw ConfigError("min_fit_window_s: must be within (0, drive_s - motor_settle_s] [s]");
+  if (fit_drives < 2) throw ConfigError("fit_drives: must be >= 2 (a line needs two speeds)");
   if (!(min_drive_s > 0 && min_drive_s <= drive_s))
     throw ConfigError("min_drive_s: must be within (0, drive_s] [s]");
   if (!(max_drive_turn_rad > 0 && max_drive_turn_rad < 1))
@@ -177,7 +178,7 @@ void WheelRun::startAlign(WheelRunStage then) {
   startMeasure(Purpose::kAlign, last_now_s_);
 }
 
-void WheelRun::startPulse(double now_s, double turn_rad) {
+void WheelRun::startPulse(double turn_rad) {
   // Paper §3.2–3.3: one wheel turns, the other stands (here the right wheel drives and the robot
   // pivots on the left wheel, so it stays where it is over any number of steps). The pulse ends
   // when the right encoder has turned the wheel by the step's angle, R·φ/L = turn (at least one
@@ -191,7 +192,7 @@ void WheelRun::startPulse(double now_s, double turn_rad) {
   const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
   pulse_ticks_ =
       std::max(1, static_cast<int>(std::lround(wheel_rad * ticks_per_rev_ / (2 * M_PI))));
-  motion_end_s_ = now_s + options_.max_pulse_s;
+  startMotionClock(options_.max_pulse_s);
   purpose_ = Purpose::kAlign;
 }
 
@@ -204,13 +205,24 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   drive_speed_mps_ = speed_mps;
   duties_ = {sign * d.left, sign * d.right};
   motion_ = Motion::kDrive;
-  drive_start_s_ = drive_start_forward_s_ = now_s;
+  drive_start_s_ = now_s;
   drive_start_left_ = left_;
+  drive_start_right_ = right_;
   drive_samples_.clear();
-  motion_end_s_ = drive_end_s_ = now_s + driveSeconds(speed_mps);
+  startMotionClock(driveSeconds(speed_mps));
+}
+
+void WheelRun::startMotionClock(double length_s) {
+  // A motion's clock starts at the first update() that returns its duties, i.e. when the caller
+  // commands them: a motion planned while processing a frame (a node behind the simulator, a
+  // slow detection) would otherwise lose the delay from its length.
+  motion_len_s_ = length_s;
+  motion_clock_started_ = false;
+  motion_end_s_ = std::numeric_limits<double>::infinity();
 }
 
 void WheelRun::stopMotion(double now_s) {
+  if (motion_ == Motion::kDrive) drive_end_s_ = now_s;
   duties_ = {};
   motion_ = Motion::kSettle;
   stop_s_ = now_s;
@@ -224,6 +236,10 @@ bool WheelRun::settled(double now_s) const {
 
 void WheelRun::recordDriveForFit() {
   if (!options_.compensate_deadband) return;
+  // The fit is frozen after fit_drives drives: the trim estimator measures k against the offsets
+  // the drives compensate, and offsets that kept moving by a few 1e-4 (each a few 0.1 % of the
+  // wheel speed) would keep moving the k it converges to.
+  if (static_cast<int>(fit_points_left_.size()) >= options_.fit_drives) return;
   // Steady rate of each wheel: least squares of ticks against time after the motors' lag.
   const double t0 = drive_start_s_ + options_.motor_settle_s, t1 = drive_end_s_;
   if (t1 - t0 < options_.min_fit_window_s) return;  // a short drive's rate is too coarse
@@ -237,15 +253,19 @@ void WheelRun::recordDriveForFit() {
   const double den = n * stt - st * st;
   if (den <= 0) return;
   const double k = 2 * M_PI / ticks_per_rev_;
+  // A rate's variance from a window of length T falls as 1/T^3 (quantised ticks, uniform
+  // samples): the short first drives weigh little next to the long ones.
+  const double weight = std::pow(t1 - t0, 3);
   fit_points_left_.push_back(
-      {std::abs(drive_duties_.left), std::abs(k * (n * stl - st * sl) / den)});
+      {std::abs(drive_duties_.left), std::abs(k * (n * stl - st * sl) / den), weight});
   fit_points_right_.push_back(
-      {std::abs(drive_duties_.right), std::abs(k * (n * str - st * sr) / den)});
-  auto fit = [](const std::vector<std::array<double, 2>>& pts, MotorFit& out) {
+      {std::abs(drive_duties_.right), std::abs(k * (n * str - st * sr) / den), weight});
+  auto fit = [](const std::vector<std::array<double, 3>>& pts, MotorFit& out) {
     double lo = 1e9, hi = -1e9, m = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (const auto& p : pts) {
+      const double w = p[2];
       lo = std::min(lo, p[0]), hi = std::max(hi, p[0]);
-      m += 1, sx += p[0], sy += p[1], sxx += p[0] * p[0], sxy += p[0] * p[1];
+      m += w, sx += w * p[0], sy += w * p[1], sxx += w * p[0] * p[0], sxy += w * p[0] * p[1];
     }
     if (hi - lo < 0.03) return;  // one duty: the line is not determined
     const double a = (m * sxy - sx * sy) / (m * sxx - sx * sx);
@@ -253,7 +273,7 @@ void WheelRun::recordDriveForFit() {
     if (!(a > 0)) return;
     const double offset = -b / a;
     if (!(offset >= 0 && offset < 0.6)) return;
-    out = {true, a, offset, static_cast<int>(m)};
+    out = {true, a, offset, static_cast<int>(pts.size())};
   };
   fit(fit_points_left_, fit_left_);
   fit(fit_points_right_, fit_right_);
@@ -305,7 +325,7 @@ void WheelRun::onMeasured(double now_s) {
                "): is the robot at the tag field, and the camera working?");
         }
         pulse_dir_ = 1;
-        startPulse(now_s, options_.search_step_rad);
+        startPulse(options_.search_step_rad);
         return;
       }
       search_turned_rad_ = 0;
@@ -322,7 +342,7 @@ void WheelRun::onMeasured(double now_s) {
       }
       // Turn towards heading 0: a positive heading is the robot turned counter-clockwise.
       pulse_dir_ = m.heading_rad > 0 ? -1 : 1;
-      startPulse(now_s, 0.8 * std::abs(m.heading_rad));
+      startPulse(0.8 * std::abs(m.heading_rad));
       return;
     }
     case Purpose::kBeforeDrive:
@@ -361,7 +381,6 @@ void WheelRun::onMeasured(double now_s) {
       {
         const double back_mps =
             options_.compensate_deadband ? options_.back_speed_mps : options_.drive_speed_mps;
-        const double forward_s = drive_end_s_ - drive_start_forward_s_;
         const KinematicsParams& p = drive_params_;
         const double w = back_mps / p.radius;
         const WheelDuties d = speedsToDuties(p, {w, w});
@@ -370,8 +389,11 @@ void WheelRun::onMeasured(double now_s) {
         drive_sign_ = -1;
         motion_ = Motion::kDrive;
         drive_start_s_ = now_s;
+        drive_start_left_ = left_;
+        drive_start_right_ = right_;
         drive_samples_.clear();
-        motion_end_s_ = drive_end_s_ = now_s + forward_s * options_.drive_speed_mps / back_mps;
+        // As long as the forward drive was commanded, at the speed ratio: the same distance.
+        startMotionClock(forward_s_ * drive_speed_mps_ / back_mps);
         purpose_ = Purpose::kAfterBack;
       }
       return;
@@ -386,7 +408,7 @@ void WheelRun::startLeave(double now_s) {
   // Paper §5.1: aligned with the tags, which point towards the lane: drive straight until the last
   // tag has left the view, then a little further (the camera does not see the floor just ahead).
   startDrive(now_s, +1, options_.leave_speed_mps);
-  motion_end_s_ = std::numeric_limits<double>::infinity();
+  motion_len_s_ = std::numeric_limits<double>::infinity();
   purpose_ = Purpose::kLeaveDrive;
   leave_start_left_ = left_;
   last_tag_seen_s_ = now_s;
@@ -415,6 +437,7 @@ void WheelRun::onSettled(double now_s) {
     }
     case Purpose::kAfterForward:
       drive_left_angle_rad_ = (left_ - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
+      forward_s_ = drive_end_s_ - drive_start_s_;
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
       return;
@@ -467,6 +490,11 @@ WheelDuties WheelRun::update(double now_s) {
   if (now_s - start_s_ > options_.max_duration_s) {
     fail("the wheel stage took longer than max_duration_s " +
          formatNumber(options_.max_duration_s, 4) + " s");
+  }
+  if ((motion_ == Motion::kPulse || motion_ == Motion::kDrive) && !motion_clock_started_) {
+    motion_clock_started_ = true;
+    motion_end_s_ = now_s + motion_len_s_;
+    if (motion_ == Motion::kDrive) drive_start_s_ = now_s;
   }
   switch (motion_) {
     case Motion::kPulse:

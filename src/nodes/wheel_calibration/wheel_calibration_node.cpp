@@ -38,18 +38,10 @@ void WheelCalibrationNodeOptions::validate() const {
 
 namespace {
 
-std::string defaultVeh(const ros::NodeHandle& nh) {
-  std::string ns = nh.getNamespace();
-  while (!ns.empty() && ns.back() == '/') ns.pop_back();
-  const size_t slash = ns.rfind('/');
-  const std::string last = slash == std::string::npos ? ns : ns.substr(slash + 1);
-  return last.empty() ? "autobot" : last;
-}
-
 WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "wheel_calibration_node");
   WheelCalibrationNodeOptions o;
-  o.veh = defaultVeh(nh);
+  o.veh = ros_layer::defaultVeh(nh);
   p.get("veh", o.veh);
   p.get("calibration_root", o.calibration_root);
   p.get("intrinsics_file", o.intrinsics_file);

@@ -9,6 +9,14 @@
 namespace autocal {
 namespace ros_layer {
 
+std::string defaultVeh(const ros::NodeHandle& nh) {
+  std::string ns = nh.getNamespace();
+  while (!ns.empty() && ns.back() == '/') ns.pop_back();
+  const size_t slash = ns.rfind('/');
+  const std::string last = slash == std::string::npos ? ns : ns.substr(slash + 1);
+  return last.empty() ? "autobot" : last;
+}
+
 namespace {
 std::string show(double v) { return formatNumber(v); }
 std::string show(int v) { return std::to_string(v); }

@@ -11,6 +11,10 @@
 namespace autocal {
 namespace ros_layer {
 
+/// The robot's name when ~veh is not set: the last component of the node's namespace ("autobot"
+/// in the root namespace).
+std::string defaultVeh(const ros::NodeHandle& nh);
+
 class ParamReader {
  public:
   /// `pnh` is the node's private handle; `node_name` prefixes the echoed lines.

@@ -46,3 +46,21 @@ if(CATKIN_ENABLE_TESTING)
     DEPENDENCIES ${_wheel_deps})
 endif()
 
+# Duckietown's acceptance test automated: drive 2 m straight through the kinematics node, report the
+# drift (the simulator's truth, or the user's tape measure).
+target_sources(autocal_core PRIVATE src/core/wheels/straight_track.cpp)
+add_executable(validate_straight
+  src/nodes/validate_straight/validate_straight_node.cpp
+  src/nodes/validate_straight/validate_straight_main.cpp)
+target_link_libraries(validate_straight autocal_ros)
+target_compile_options(validate_straight PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(validate_straight)
+if(CATKIN_ENABLE_TESTING)
+  add_executable(test_validate_straight EXCLUDE_FROM_ALL test/wheels/test_validate_straight.cpp)
+  target_link_libraries(test_validate_straight autocal_test_support autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_validate_straight PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_validate_straight)
+  add_dependencies(tests test_validate_straight)
+  add_rostest(test/wheels/validate_straight.test
+    DEPENDENCIES test_validate_straight validate_straight kinematics_node sim_node)
+endif()

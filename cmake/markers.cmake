@@ -1,6 +1,6 @@
-# markers: the `detect_tags` command (issue 10) and its tests (included from CMakeLists.txt; the
-# detector itself, src/core/markers/tag_detector.cpp, is listed in cmake/wheels.cmake, the stage
-# that uses it first).
+# markers: the `detect_tags` command (issue 10), its tests and the tag detection benchmark
+# (included from CMakeLists.txt; the detector itself, src/core/markers/tag_detector.cpp, is listed
+# in cmake/wheels.cmake, the stage that uses it first).
 target_sources(autocal_core PRIVATE
   src/core/camera_info_file.cpp
   src/core/markers/detect_tags.cpp)
@@ -25,3 +25,11 @@ if(CATKIN_ENABLE_TESTING)
     DETECT_TAGS_BINARY="$<TARGET_FILE:detect_tags>")
   add_dependencies(test_detect_tags_command detect_tags)
 endif()
+
+# Detection + pose speed per 640x480 frame, ours vs plain libapriltag (scripts/bench/tags.sh);
+# ROS-free.
+add_executable(bench_tag_detection test/markers/bench_tag_detection.cpp)
+target_link_libraries(bench_tag_detection autocal_core autocal_sim_core)
+target_compile_definitions(bench_tag_detection PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+target_compile_options(bench_tag_detection PRIVATE ${AUTOCAL_WARNINGS})
+set_target_properties(bench_tag_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

@@ -44,6 +44,17 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/wheels/wheel_node.test ARGS veh:=trimp08
     robot_config:=${CMAKE_CURRENT_SOURCE_DIR}/sim/config/fleet/robot_trim_p08.yaml
     DEPENDENCIES ${_wheel_deps})
+  # The one failure path: no tag in a full turn; the intrinsics missing.
+  add_executable(test_wheel_node_fails EXCLUDE_FROM_ALL test/wheels/test_wheel_node_fails.cpp)
+  target_link_libraries(test_wheel_node_fails autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_wheel_node_fails PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_wheel_node_fails)
+  add_dependencies(tests test_wheel_node_fails)
+  add_rostest(test/wheels/wheel_node_fails.test
+    DEPENDENCIES test_wheel_node_fails wheel_calibration_node sim_node)
+  add_rostest(test/wheels/wheel_node_fails.test ARGS veh:=nointrinsics
+    intrinsics_file:=/nonexistent/camera.yaml expect:=intrinsics
+    DEPENDENCIES test_wheel_node_fails wheel_calibration_node sim_node)
 endif()
 
 # Duckietown's acceptance test automated: drive 2 m straight through the kinematics node, report the

@@ -30,6 +30,7 @@
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/scene.h"
+#include "autocal/wheels/tag_heading.h"
 
 using namespace autocal;
 
@@ -191,6 +192,22 @@ int main(int argc, char** argv) {
       }
       return out;
     });
+    // As the wheel stage runs it: only the rows that can show floor within 0.6 m + a tag
+    // (WheelRunOptions::crop_to_floor), with the nominal mount.
+    markers::TagDetectorOptions of = o;
+    of.min_row_px = std::max(0, wheels::floorRowLimitPx(wheels::CameraMount(), K.fy, K.cy, K.height,
+                                                        0.6 + o.tag_size_m) -
+                                    12);
+    const markers::TagDetector floor_only(of, K);
+    measure(("ours_floor" + d).c_str(), frames, rounds, [&](const cv::Mat& gray) {
+      Positions out;
+      for (const markers::TagDetection& t : floor_only.detect(gray)) {
+        out.emplace_back(
+            t.id, Eigen::Vector3d(t.translation_m[0], t.translation_m[1], t.translation_m[2]));
+      }
+      return out;
+    });
+    if (decimate == 1.0) std::printf("floor_row %d\n", of.min_row_px);
     measure(("plain" + d).c_str(), frames, rounds,
             [&](const cv::Mat& gray) { return plain.detect(gray); });
     measure(("plain_detect_only" + d).c_str(), frames, rounds,

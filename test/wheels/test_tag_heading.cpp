@@ -126,3 +126,18 @@ TEST(TagDetectorOptions, BadValuesNameTheirKey) {
     EXPECT_NE(std::string(e.what()).find("decimate"), std::string::npos);
   }
 }
+
+TEST(TagHeading, FloorRowLimitIsWhereTheFloorAtThatDepthIsImaged) {
+  autocal::wheels::CameraMount mount;  // 0.105 m high, pitched down 0.26 rad
+  // The optical axis meets the floor h/tan(pitch) ahead: imaged on the principal point's row.
+  const double axis_m = mount.height_m / std::tan(mount.pitch_rad);
+  EXPECT_NEAR(autocal::wheels::floorRowLimitPx(mount, 320, 240, 480, axis_m), 240, 1);
+  // Farther floor is higher in the image, nearer floor lower; the horizon is fy·tan(pitch) above.
+  EXPECT_LT(autocal::wheels::floorRowLimitPx(mount, 320, 240, 480, 0.65), 240);
+  EXPECT_GT(autocal::wheels::floorRowLimitPx(mount, 320, 240, 480, 0.2), 240);
+  EXPECT_NEAR(autocal::wheels::floorRowLimitPx(mount, 320, 240, 480, 1e6),
+              240 - 320 * std::tan(mount.pitch_rad), 1);
+  // A camera looking up: floor 1 m ahead is below the image (no row can show it).
+  mount.pitch_rad = -1.0;
+  EXPECT_EQ(autocal::wheels::floorRowLimitPx(mount, 320, 240, 480, 1.0), 480);
+}

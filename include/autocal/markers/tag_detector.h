@@ -32,6 +32,10 @@ struct TagDetectorOptions {
   double min_decision_margin = 20.0;
   /// Edge of the tag's black square [m] (Duckietown: 0.065).
   double tag_size_m = 0.065;
+  /// Rows of the undistorted image above this one are not searched [px] (0: the whole image). A
+  /// camera looking down at floor tags sees them only below the row of the floor's far limit:
+  /// searching only there is faster (libapriltag's time grows with the image and its clutter).
+  int min_row_px = 0;
 
   /// Throws ConfigError naming the first bad key.
   void validate() const;

@@ -30,6 +30,12 @@ struct CameraMount {
   cv::Vec3d floorUpInCamera() const;
 };
 
+/// The first row of the undistorted (pinhole) image that can show floor within `forward_m` ahead
+/// of the camera [px]: floor farther away (and everything above the horizon) lies above it. 0 when
+/// the whole image can (a camera looking up); the image height when none can.
+int floorRowLimitPx(const CameraMount& mount, double fy_px, double cy_px, int height_px,
+                    double forward_m);
+
 /// One tag as the robot sees it.
 struct TagSighting {
   int id = -1;

@@ -42,6 +42,9 @@ struct WheelRunOptions {
   /// (e.g. the camera stage's minimum moving duties) and are replaced when compensating.
   KinematicsParams kinematics;
 
+  /// Search tags only in the image rows that can show floor within heading.max_distance_m plus a
+  /// tag (detector.min_row_px, unless set): farther tags are not used, and detection is faster.
+  bool crop_to_floor = true;
   /// Fit and compensate each wheel's deadband (written as deadband_left/right); false: Duckietown's
   /// semantics exactly (offsets 0), the trim is then right at the first drive speed only.
   bool compensate_deadband = true;

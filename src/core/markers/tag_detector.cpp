@@ -3,6 +3,7 @@
 #include <apriltag/apriltag.h>
 #include <apriltag/tag36h11.h>
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -22,6 +23,7 @@ void TagDetectorOptions::validate() const {
   if (max_hamming < 0 || max_hamming > 2) throw ConfigError("max_hamming: must be 0, 1 or 2");
   if (!(min_decision_margin >= 0.0)) throw ConfigError("min_decision_margin: must be >= 0");
   if (!(tag_size_m > 0.0 && tag_size_m < 10.0)) throw ConfigError("tag_size_m: must be > 0 [m]");
+  if (min_row_px < 0) throw ConfigError("min_row_px: must be >= 0 [px]");
 }
 
 Undistorter::Undistorter(const CameraIntrinsics& intrinsics) : intrinsics_(intrinsics) {
@@ -96,6 +98,9 @@ std::vector<TagDetection> TagDetector::detectUndistorted(const cv::Mat& undistor
                      " channels");
   }
   if (gray.depth() != CV_8U) throw InputError("image must have 8-bit channels");
+  // Only the rows from min_row_px down (a view, no copy); corners are shifted back below.
+  const int row0 = std::min(options_.min_row_px, std::max(0, gray.rows - 16));
+  if (row0 > 0) gray = gray.rowRange(row0, gray.rows);
   if (!gray.isContinuous()) gray = gray.clone();
   image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step), gray.data};
   zarray_t* found = apriltag_detector_detect(impl_->detector, &im);
@@ -113,8 +118,10 @@ std::vector<TagDetection> TagDetector::detectUndistorted(const cv::Mat& undistor
     d.decision_margin = det->decision_margin;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) d.homography(r, c) = MATD_EL(det->H, r, c);
-    d.center_px = {det->c[0], det->c[1]};
-    for (int k = 0; k < 4; ++k) d.corners_px[k] = {det->p[k][0], det->p[k][1]};
+    // Back to the whole image's pixels: v += row0 (the homography's rows: v·w = row1 + row0·row2).
+    for (int c = 0; c < 3; ++c) d.homography(1, c) += row0 * d.homography(2, c);
+    d.center_px = {det->c[0], det->c[1] + row0};
+    for (int k = 0; k < 4; ++k) d.corners_px[k] = {det->p[k][0], det->p[k][1] + row0};
     estimateTagPose(d, options_.tag_size_m, K, have_floor_normal_ ? floor_up_ : cv::Vec3d(0, 0, 0));
     result.push_back(d);
   }

@@ -34,6 +34,16 @@ cv::Matx33d CameraMount::cameraToRobot() const {
 
 cv::Vec3d CameraMount::floorUpInCamera() const { return cameraToRobot().t() * cv::Vec3d(0, 0, 1); }
 
+int floorRowLimitPx(const CameraMount& mount, double fy_px, double cy_px, int height_px,
+                    double forward_m) {
+  // A floor point forward_m ahead lies atan(h/d) below the horizon, i.e. atan(h/d) − pitch below
+  // the optical axis: v = cy + fy·tan(that). Rows correspond to lines of constant depth.
+  const double below_axis = std::atan2(mount.height_m, forward_m) - mount.pitch_rad;
+  if (below_axis <= -M_PI / 2 + 1e-6) return 0;
+  const double v = cy_px + fy_px * std::tan(below_axis);
+  return std::clamp(static_cast<int>(std::floor(v)), 0, height_px);
+}
+
 TagSighting sightTag(const markers::TagDetection& detection, const CameraMount& mount) {
   const cv::Matx33d R_rc = mount.cameraToRobot();
   const cv::Matx33d R = R_rc * detection.rotation;  // tag axes in the robot frame

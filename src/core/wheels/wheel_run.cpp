@@ -1,6 +1,7 @@
 // The wheel stage's loop: align (paper 000 §3.3), iterate (§3.4), leave (§5.1).
 #include "autocal/wheels/wheel_run.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -92,7 +93,15 @@ WheelRun::WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intri
     : options_(options),
       estimator_((options.validate(), options.trim)),
       last_heading_rad_(std::numeric_limits<double>::quiet_NaN()) {
-  detector_.reset(new markers::TagDetector(options_.detector, intrinsics));
+  markers::TagDetectorOptions detector = options_.detector;
+  if (options_.crop_to_floor && detector.min_row_px == 0) {
+    // A 12 px margin: a tag's far corners and the lens model's error.
+    detector.min_row_px =
+        std::max(0, floorRowLimitPx(options_.mount, intrinsics.fy, intrinsics.cy, intrinsics.height,
+                                    options_.heading.max_distance_m + detector.tag_size_m) -
+                        12);
+  }
+  detector_.reset(new markers::TagDetector(detector, intrinsics));
   detector_->setFloorNormal(options_.mount.floorUpInCamera());
   ratio_error_ = options_.initial_ratio_error;
 }

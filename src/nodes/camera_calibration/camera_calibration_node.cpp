@@ -130,16 +130,22 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
   status_.running("camera/wait", 0, "waiting for the camera and the encoders");
   info_sub_ =
       nh_.subscribe("camera_node/camera_info", 1, &CameraCalibrationNode::onCameraInfo, this);
-  left_sub_ =
-      nh_.subscribe("left_wheel_encoder_node/tick", 50, &CameraCalibrationNode::onLeft, this);
-  right_sub_ =
-      nh_.subscribe("right_wheel_encoder_node/tick", 50, &CameraCalibrationNode::onRight, this);
-  if (options_.image_transport == "compressed") {
-    image_sub_ = nh_.subscribe("camera_node/image/compressed", 2,
-                               &CameraCalibrationNode::onCompressed, this);
-  } else {
-    image_sub_ = nh_.subscribe("camera_node/image/raw", 2, &CameraCalibrationNode::onRaw, this);
-  }
+  frames_ = std::make_unique<ros_layer::FrameInput>(
+      nh_, options_.image_transport, "camera_calibration_node",
+      [this](const ros::Time& stamp) { return frameWanted(stamp); },
+      [this](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
+        run_->addFrame(stamp.toSec(), image, source);
+        publishDebug(image);
+      },
+      &error_);
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int resolution) {
+        encoders_seen_ = true;
+        if (run_)
+          run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
+      },
+      &error_);
 }
 
 void CameraCalibrationNode::connect() {
@@ -148,8 +154,8 @@ void CameraCalibrationNode::connect() {
   // a held clock does not move. Inputs that never connect are caught by the timeouts later.
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
   while (ros_layer::ok() && ros::WallTime::now() < end &&
-         (image_sub_.getNumPublishers() == 0 || left_sub_.getNumPublishers() == 0 ||
-          right_sub_.getNumPublishers() == 0 || info_sub_.getNumPublishers() == 0)) {
+         (frames_->publishers() == 0 || !encoders_->connected() ||
+          info_sub_.getNumPublishers() == 0)) {
     ros::WallDuration(0.01).sleep();
   }
   wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
@@ -173,83 +179,12 @@ void CameraCalibrationNode::onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr
   });
 }
 
-void CameraCalibrationNode::onLeft(const dtmsg::WheelEncoderStamped::ConstPtr& msg) {
-  guarded([&] {
-    const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
-    left_ticks_ = r.ticks;
-    resolution_ = r.ticks_per_revolution;
-    have_left_ = true;
-    feedEncoders(msg->header.stamp);
-  });
-}
-
-void CameraCalibrationNode::onRight(const dtmsg::WheelEncoderStamped::ConstPtr& msg) {
-  guarded([&] {
-    const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
-    right_ticks_ = r.ticks;
-    resolution_ = r.ticks_per_revolution;
-    have_right_ = true;
-    feedEncoders(msg->header.stamp);
-  });
-}
-
-void CameraCalibrationNode::feedEncoders(const ros::Time& stamp) {
-  encoders_seen_ = true;
-  if (run_ && have_left_ && have_right_)
-    run_->addEncoders(stamp.toSec(), left_ticks_, right_ticks_, resolution_,
-                      ros::Time::now().toSec());
-}
-
 bool CameraCalibrationNode::frameWanted(const ros::Time& stamp) {
   if (!run_) return false;
   frames_seen_ = true;
   run_->noteFrameArrived(ros::Time::now().toSec());
   // Decode only the frame the stage wants (one per step): the others cost nothing.
   return run_->wantsFrame(stamp.toSec());
-}
-
-void CameraCalibrationNode::dropFrame(const std::string& why) {
-  ++frames_dropped_;
-  ROS_WARN_THROTTLE(5, "camera_calibration_node: dropped a frame: %s (%d so far)", why.c_str(),
-                    frames_dropped_);
-}
-
-void CameraCalibrationNode::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
-  guarded([&] {
-    if (!frameWanted(msg->header.stamp)) return;
-    cv::Mat image;
-    if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
-    if (image.empty()) return dropFrame("the JPEG does not decode");
-    onFrame(msg->header.stamp, image, "compressed@" + formatNumber(msg->header.stamp.toSec(), 6));
-  });
-}
-
-void CameraCalibrationNode::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
-  guarded([&] {
-    if (!frameWanted(msg->header.stamp)) return;
-    cv::Mat image;
-    try {
-      image = cv_bridge::toCvCopy(msg, "mono8")->image;
-    } catch (const cv_bridge::Exception& e) {
-      return dropFrame(e.what());
-    }
-    onFrame(msg->header.stamp, image, "raw@" + formatNumber(msg->header.stamp.toSec(), 6));
-  });
-}
-
-void CameraCalibrationNode::onFrame(const ros::Time& stamp, const cv::Mat& image,
-                                    const std::string& source) {
-  // The size camera_info gives, else the first frame's: a frame of another size is dropped (and
-  // never becomes the size the others are held to).
-  const cv::Size want = have_info_ ? cv::Size(info_.width, info_.height) : first_size_;
-  if (want.area() > 0 && image.size() != want) {
-    return dropFrame("it is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                     ", the camera's frames are " + std::to_string(want.width) + "x" +
-                     std::to_string(want.height));
-  }
-  if (first_size_.area() == 0) first_size_ = image.size();
-  run_->addFrame(stamp.toSec(), image, source);
-  publishDebug(image);
 }
 
 void CameraCalibrationNode::publishDebug(const cv::Mat& frame) {
@@ -290,7 +225,11 @@ void CameraCalibrationNode::waitForCameraInfo() {
         options_.camera_info_wait_s, run.sweep.camera_hfov_rad);
   }
   run_ = std::make_unique<SweepRun>(run, camera);
-  feedEncoders(ros::Time::now());
+  if (have_info_) frames_->holdToSize(cv::Size(info_.width, info_.height));
+  if (encoders_->valid()) {
+    const double now = ros::Time::now().toSec();
+    run_->addEncoders(now, encoders_->left(), encoders_->right(), encoders_->resolution(), now);
+  }
 }
 
 void CameraCalibrationNode::publishStatus(bool force) {
@@ -307,7 +246,7 @@ void CameraCalibrationNode::publishStatus(bool force) {
                   {{"views", c.views},
                    {"sharp_views", static_cast<double>(run_->sharpViews().size())},
                    {"frames", run_->framesProcessed()},
-                   {"frames_dropped", frames_dropped_},
+                   {"frames_dropped", static_cast<double>(frames_->dropped())},
                    {"steps", run_->controller().steps()},
                    {"elapsed_s", run_->elapsedS()}});
 }
@@ -375,7 +314,7 @@ void CameraCalibrationNode::finish() {
                 {"rms_px", result.rms_px},
                 {"views", static_cast<double>(result.used_views.size())},
                 {"sweep_s", run_->elapsedS()},
-                {"frames_dropped", frames_dropped_},
+                {"frames_dropped", static_cast<double>(frames_->dropped())},
                 {"min_duty_left_forward", d.left_forward},
                 {"min_duty_left_backward", d.left_backward},
                 {"min_duty_right_forward", d.right_forward},

@@ -25,6 +25,7 @@
 #include "autocal/camera/sweep_run.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
+#include "autocal_ros/sensor_inputs.h"
 
 namespace autocal {
 namespace camera {
@@ -60,17 +61,9 @@ class CameraCalibrationNode {
   void run();
 
  private:
-  void onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg);
-  void onRaw(const sensor_msgs::Image::ConstPtr& msg);
-  void onFrame(const ros::Time& stamp, const cv::Mat& image, const std::string& source);
   /// Notes a frame's arrival; true when the stage wants it decoded.
   bool frameWanted(const ros::Time& stamp);
-  /// Counts a bad frame and warns (throttled).
-  void dropFrame(const std::string& why);
   void onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg);
-  void onLeft(const dtmsg::WheelEncoderStamped::ConstPtr& msg);
-  void onRight(const dtmsg::WheelEncoderStamped::ConstPtr& msg);
-  void feedEncoders(const ros::Time& stamp);
   /// Callbacks keep their exception for run() to rethrow (one failure path).
   template <typename F>
   void guarded(F&& f);
@@ -87,14 +80,12 @@ class CameraCalibrationNode {
   ros_layer::StatusPublisher status_;
   ros_layer::WheelsCommander wheels_;
   ros::Publisher debug_pub_;
-  ros::Subscriber image_sub_, info_sub_, left_sub_, right_sub_;
+  ros::Subscriber info_sub_;
+  std::unique_ptr<ros_layer::FrameInput> frames_;
+  std::unique_ptr<ros_layer::EncoderInput> encoders_;
   bool have_info_ = false;
   sensor_msgs::CameraInfo info_;
-  bool have_left_ = false, have_right_ = false;
-  int left_ticks_ = 0, right_ticks_ = 0, resolution_ = 0;
-  int frames_dropped_ = 0;
   bool frames_seen_ = false, encoders_seen_ = false;  ///< in the current batch of callbacks
-  cv::Size first_size_;
   std::exception_ptr error_;
   ros::Time last_status_;
   std::string last_phase_;

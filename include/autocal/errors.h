@@ -37,6 +37,12 @@ class IoError : public Error {
   using Error::Error;
 };
 
+/// Throws ConfigError "<key>: <what>" unless `ok`: how an options struct's validate() names the
+/// first bad key.
+inline void checkConfig(bool ok, const std::string& key, const std::string& what) {
+  if (!ok) throw ConfigError(key + ": " + what);
+}
+
 /// A command was called with options it does not understand (exit code 64).
 class UsageError : public Error {
  public:

@@ -25,39 +25,42 @@ cv::Size parseBoardSize(const std::string& text) {
 }
 
 void CameraCalibrationConfig::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError(key + ": " + what);
-  };
   board.validate();
-  check(detector.max_boards >= 1, "detection.max_boards", "must be >= 1");
-  check(detector.refine_window_ratio > 0 && detector.refine_window_ratio < 0.5,
-        "detection.refine_window_ratio",
-        "must be in (0, 0.5): the window must not reach the next corner");
-  check(detector.refine_min_half_window_px >= 1 &&
-            detector.refine_max_half_window_px >= detector.refine_min_half_window_px,
-        "detection.refine_max_half_window_px", "must be >= refine_min_half_window_px >= 1");
-  check(selection.min_novelty >= 0, "view_selection.min_novelty", "must be >= 0");
-  check(selection.max_views >= selection.min_views && selection.min_views >= 1,
-        "view_selection.max_views", "must be >= min_views >= 1");
-  check(selection.max_edge_width_px > 0, "view_selection.max_edge_width_px", "must be > 0");
-  check(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio",
-        "must be > 0");
-  check(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
-  check(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
-  check(calibration.min_term_significance > 0, "calibration.min_term_significance", "must be > 0");
-  check(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
-  check(calibration.max_selection_folds >= 2, "calibration.max_selection_folds", "must be >= 2");
-  check(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor", "must be > 1");
-  check(calibration.outlier_corner_factor > 1, "calibration.outlier_corner_factor", "must be > 1");
-  check(calibration.max_outlier_corner_fraction > 0 && calibration.max_outlier_corner_fraction < 1,
-        "calibration.max_outlier_corner_fraction", "must be in (0, 1)");
-  check(calibration.max_outlier_rounds >= 1, "calibration.max_outlier_rounds", "must be >= 1");
-  check(calibration.min_kept_fraction > 0 && calibration.min_kept_fraction <= 1,
-        "calibration.min_kept_fraction", "must be in (0, 1]");
-  check(quality_gate.max_rms_px > 0, "quality_gate.max_rms_px", "must be > 0");
-  check(quality_gate.max_view_rms_px > 0, "quality_gate.max_view_rms_px", "must be > 0");
-  check(quality_gate.min_views >= calibration.min_views, "quality_gate.min_views",
-        "must be >= calibration.min_views");
+  checkConfig(detector.max_boards >= 1, "detection.max_boards", "must be >= 1");
+  checkConfig(detector.refine_window_ratio > 0 && detector.refine_window_ratio < 0.5,
+              "detection.refine_window_ratio",
+              "must be in (0, 0.5): the window must not reach the next corner");
+  checkConfig(detector.refine_min_half_window_px >= 1 &&
+                  detector.refine_max_half_window_px >= detector.refine_min_half_window_px,
+              "detection.refine_max_half_window_px", "must be >= refine_min_half_window_px >= 1");
+  checkConfig(selection.min_novelty >= 0, "view_selection.min_novelty", "must be >= 0");
+  checkConfig(selection.max_views >= selection.min_views && selection.min_views >= 1,
+              "view_selection.max_views", "must be >= min_views >= 1");
+  checkConfig(selection.max_edge_width_px > 0, "view_selection.max_edge_width_px", "must be > 0");
+  checkConfig(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio",
+              "must be > 0");
+  checkConfig(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
+  checkConfig(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
+  checkConfig(calibration.min_term_significance > 0, "calibration.min_term_significance",
+              "must be > 0");
+  checkConfig(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
+  checkConfig(calibration.max_selection_folds >= 2, "calibration.max_selection_folds",
+              "must be >= 2");
+  checkConfig(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor",
+              "must be > 1");
+  checkConfig(calibration.outlier_corner_factor > 1, "calibration.outlier_corner_factor",
+              "must be > 1");
+  checkConfig(
+      calibration.max_outlier_corner_fraction > 0 && calibration.max_outlier_corner_fraction < 1,
+      "calibration.max_outlier_corner_fraction", "must be in (0, 1)");
+  checkConfig(calibration.max_outlier_rounds >= 1, "calibration.max_outlier_rounds",
+              "must be >= 1");
+  checkConfig(calibration.min_kept_fraction > 0 && calibration.min_kept_fraction <= 1,
+              "calibration.min_kept_fraction", "must be in (0, 1]");
+  checkConfig(quality_gate.max_rms_px > 0, "quality_gate.max_rms_px", "must be > 0");
+  checkConfig(quality_gate.max_view_rms_px > 0, "quality_gate.max_view_rms_px", "must be > 0");
+  checkConfig(quality_gate.min_views >= calibration.min_views, "quality_gate.min_views",
+              "must be >= calibration.min_views");
 }
 
 CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {

@@ -24,18 +24,15 @@ std::string duty2(double d) {
 }  // namespace
 
 void MinDutyProbeOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError(key + ": " + what);
-  };
-  check(std::isfinite(start_duty) && start_duty >= 0 && start_duty <= 1, "start_duty",
-        "must be in [0, 1]");
-  check(std::isfinite(duty_step) && duty_step > 0 && duty_step <= 1, "duty_step",
-        "must be in (0, 1]");
-  check(std::isfinite(max_duty) && max_duty >= start_duty && max_duty <= 1, "max_duty",
-        "must be in [start_duty, 1]");
-  check(min_ticks >= 1, "min_ticks", "must be >= 1");
-  check(std::isfinite(pulse_s) && pulse_s > 0, "pulse_s", "must be > 0");
-  check(std::isfinite(settle_s) && settle_s >= 0, "settle_s", "must be >= 0");
+  checkConfig(std::isfinite(start_duty) && start_duty >= 0 && start_duty <= 1, "start_duty",
+              "must be in [0, 1]");
+  checkConfig(std::isfinite(duty_step) && duty_step > 0 && duty_step <= 1, "duty_step",
+              "must be in (0, 1]");
+  checkConfig(std::isfinite(max_duty) && max_duty >= start_duty && max_duty <= 1, "max_duty",
+              "must be in [start_duty, 1]");
+  checkConfig(min_ticks >= 1, "min_ticks", "must be >= 1");
+  checkConfig(std::isfinite(pulse_s) && pulse_s > 0, "pulse_s", "must be > 0");
+  checkConfig(std::isfinite(settle_s) && settle_s >= 0, "settle_s", "must be >= 0");
 }
 
 double MinDutyResult::forWheel(Wheel wheel, int sign) const {

@@ -34,34 +34,33 @@ std::string fmt(double v, int precision = 2) {
 }  // namespace
 
 void SweepOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError(key + ": " + what);
-  };
-  check(board_count >= 0, "board_count", "must be >= 0 (0 = count the boards in a first pass)");
-  check(start_board >= -1, "start_board", "must be >= 0, or -1 = find it in a first pass");
-  check(board_count == 0 || start_board < board_count, "start_board",
-        "must be below board_count (boards are numbered from 0)");
-  check(max_passes >= 1, "max_passes", "must be >= 1");
-  check(std::isfinite(camera_hfov_rad) && camera_hfov_rad > 0 && camera_hfov_rad < M_PI,
-        "camera_hfov_rad", "must be in (0, pi)");
-  check(std::isfinite(full_turn_rad) && full_turn_rad > 0, "full_turn_rad", "must be > 0");
-  check(std::isfinite(max_gap_rad) && max_gap_rad > 0 && max_gap_rad < full_turn_rad, "max_gap_rad",
-        "must be in (0, full_turn_rad)");
-  check(std::isfinite(track_gate) && track_gate > 0 && track_gate < 0.5, "track_gate",
-        "must be in (0, 0.5)");
-  check(std::isfinite(trailing_margin) && trailing_margin > 0 && trailing_margin < 0.5,
-        "trailing_margin", "must be in (0, 0.5)");
-  check(lost_confirm_frames >= 1, "lost_confirm_frames", "must be >= 1");
-  check(max_recovery_steps >= 1, "max_recovery_steps", "must be >= 1");
-  check(max_steps >= 1, "max_steps", "must be >= 1");
-  check(std::isfinite(min_step_rad) && min_step_rad >= 0, "min_step_rad", "must be >= 0");
-  check(max_stalled_steps >= 1, "max_stalled_steps", "must be >= 1");
-  check(std::isfinite(step_duration_s) && step_duration_s > 0, "step_duration_s", "must be > 0");
-  check(std::isfinite(step_duty_margin) && step_duty_margin >= 0 && step_duty_margin < 1,
-        "step_duty_margin", "must be in [0, 1)");
-  check(std::isfinite(settle_s) && settle_s >= 0, "settle_s", "must be >= 0");
-  check(std::isfinite(max_settle_s) && max_settle_s >= settle_s, "max_settle_s",
-        "must be >= settle_s");
+  checkConfig(board_count >= 0, "board_count",
+              "must be >= 0 (0 = count the boards in a first pass)");
+  checkConfig(start_board >= -1, "start_board", "must be >= 0, or -1 = find it in a first pass");
+  checkConfig(board_count == 0 || start_board < board_count, "start_board",
+              "must be below board_count (boards are numbered from 0)");
+  checkConfig(max_passes >= 1, "max_passes", "must be >= 1");
+  checkConfig(std::isfinite(camera_hfov_rad) && camera_hfov_rad > 0 && camera_hfov_rad < M_PI,
+              "camera_hfov_rad", "must be in (0, pi)");
+  checkConfig(std::isfinite(full_turn_rad) && full_turn_rad > 0, "full_turn_rad", "must be > 0");
+  checkConfig(std::isfinite(max_gap_rad) && max_gap_rad > 0 && max_gap_rad < full_turn_rad,
+              "max_gap_rad", "must be in (0, full_turn_rad)");
+  checkConfig(std::isfinite(track_gate) && track_gate > 0 && track_gate < 0.5, "track_gate",
+              "must be in (0, 0.5)");
+  checkConfig(std::isfinite(trailing_margin) && trailing_margin > 0 && trailing_margin < 0.5,
+              "trailing_margin", "must be in (0, 0.5)");
+  checkConfig(lost_confirm_frames >= 1, "lost_confirm_frames", "must be >= 1");
+  checkConfig(max_recovery_steps >= 1, "max_recovery_steps", "must be >= 1");
+  checkConfig(max_steps >= 1, "max_steps", "must be >= 1");
+  checkConfig(std::isfinite(min_step_rad) && min_step_rad >= 0, "min_step_rad", "must be >= 0");
+  checkConfig(max_stalled_steps >= 1, "max_stalled_steps", "must be >= 1");
+  checkConfig(std::isfinite(step_duration_s) && step_duration_s > 0, "step_duration_s",
+              "must be > 0");
+  checkConfig(std::isfinite(step_duty_margin) && step_duty_margin >= 0 && step_duty_margin < 1,
+              "step_duty_margin", "must be in [0, 1)");
+  checkConfig(std::isfinite(settle_s) && settle_s >= 0, "settle_s", "must be >= 0");
+  checkConfig(std::isfinite(max_settle_s) && max_settle_s >= settle_s, "max_settle_s",
+              "must be >= settle_s");
 }
 
 const char* name(SweepPhase phase) {

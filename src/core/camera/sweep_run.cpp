@@ -14,27 +14,26 @@ namespace camera {
 void SweepRunOptions::validate() const {
   sweep.validate();
   probe.validate();
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError(key + ": " + what);
-  };
-  check(std::isfinite(min_duty) && min_duty > 0 && min_duty < 1, "min_duty", "must be in (0, 1)");
-  check(std::isfinite(target_step_rad) && target_step_rad >= 0 && target_step_rad < 1.0,
-        "target_step_rad", "must be in [0, 1) rad (0 = minimum duty steps)");
-  check(std::isfinite(max_step_duty) && max_step_duty > 0 && max_step_duty <= 1, "max_step_duty",
-        "must be in (0, 1]");
-  check(std::isfinite(nominal_wheel_radius_m) && nominal_wheel_radius_m > 0,
-        "nominal_wheel_radius_m", "must be > 0");
-  check(std::isfinite(nominal_wheelbase_m) && nominal_wheelbase_m > 0, "nominal_wheelbase_m",
-        "must be > 0");
-  check(std::isfinite(still_s) && still_s >= 0, "still_s", "must be >= 0");
-  check(std::isfinite(camera_timeout_s) && camera_timeout_s > 0, "camera_timeout_s", "must be > 0");
-  check(std::isfinite(encoder_timeout_s) && encoder_timeout_s > 0, "encoder_timeout_s",
-        "must be > 0");
-  check(std::isfinite(max_duration_s) && max_duration_s > 0, "max_duration_s", "must be > 0");
+  checkConfig(std::isfinite(min_duty) && min_duty > 0 && min_duty < 1, "min_duty",
+              "must be in (0, 1)");
+  checkConfig(std::isfinite(target_step_rad) && target_step_rad >= 0 && target_step_rad < 1.0,
+              "target_step_rad", "must be in [0, 1) rad (0 = minimum duty steps)");
+  checkConfig(std::isfinite(max_step_duty) && max_step_duty > 0 && max_step_duty <= 1,
+              "max_step_duty", "must be in (0, 1]");
+  checkConfig(std::isfinite(nominal_wheel_radius_m) && nominal_wheel_radius_m > 0,
+              "nominal_wheel_radius_m", "must be > 0");
+  checkConfig(std::isfinite(nominal_wheelbase_m) && nominal_wheelbase_m > 0, "nominal_wheelbase_m",
+              "must be > 0");
+  checkConfig(std::isfinite(still_s) && still_s >= 0, "still_s", "must be >= 0");
+  checkConfig(std::isfinite(camera_timeout_s) && camera_timeout_s > 0, "camera_timeout_s",
+              "must be > 0");
+  checkConfig(std::isfinite(encoder_timeout_s) && encoder_timeout_s > 0, "encoder_timeout_s",
+              "must be > 0");
+  checkConfig(std::isfinite(max_duration_s) && max_duration_s > 0, "max_duration_s", "must be > 0");
   for (double g : coverage_goal)
-    check(std::isfinite(g) && g <= 1.0, "coverage_goal",
-          "each spread must be <= 1 (negative: the config's)");
-  check(min_views >= 1, "min_views", "must be >= 1");
+    checkConfig(std::isfinite(g) && g <= 1.0, "coverage_goal",
+                "each spread must be <= 1 (negative: the config's)");
+  checkConfig(min_views >= 1, "min_views", "must be >= 1");
 }
 
 const char* name(SweepRunStage stage) {

@@ -21,21 +21,21 @@ namespace camera {
 namespace fs = std::filesystem;
 
 void CameraCalibrationNodeOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError("~" + key + ": " + what);
-  };
-  check(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
-  check(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
-  check(!calibration_root.empty(), "calibration_root", "must not be empty");
-  check(image_transport == "compressed" || image_transport == "raw", "image_transport",
-        "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  check(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
-        "must be >= 10 Hz (pulses are 0.1 s)");
-  check(std::isfinite(camera_info_wait_s) && camera_info_wait_s >= 0, "camera_info_wait_s",
-        "must be >= 0");
-  check(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s", "must be >= 0");
-  check(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
-  check(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
+  ros_layer::checkParam(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
+  ros_layer::checkParam(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
+                        "image_transport",
+                        "must be 'compressed' or 'raw', not '" + image_transport + "'");
+  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
+                        "must be >= 10 Hz (pulses are 0.1 s)");
+  ros_layer::checkParam(std::isfinite(camera_info_wait_s) && camera_info_wait_s >= 0,
+                        "camera_info_wait_s", "must be >= 0");
+  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
+                        "must be >= 0");
+  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
+                        "must be > 0");
+  ros_layer::checkParam(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
   try {
     run.validate();
   } catch (const ConfigError& e) {

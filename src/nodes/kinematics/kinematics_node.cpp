@@ -33,13 +33,11 @@ KinematicsNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHand
 }  // namespace
 
 void KinematicsNodeOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError("~" + key + ": " + what);
-  };
-  check(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
-  check(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
-  check(!calibration_root.empty(), "calibration_root", "must not be empty");
-  check(std::isfinite(param_poll_s) && param_poll_s > 0, "param_poll_s", "must be > 0");
+  ros_layer::checkParam(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
+  ros_layer::checkParam(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkParam(std::isfinite(param_poll_s) && param_poll_s > 0, "param_poll_s",
+                        "must be > 0");
 }
 
 KinematicsNode::KinematicsNode(ros::NodeHandle nh, ros::NodeHandle pnh)

@@ -17,25 +17,27 @@ namespace autocal {
 namespace wheels {
 
 void ValidateStraightOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError("~" + key + ": " + what);
-  };
-  check(!veh.empty() && veh.find('/') == std::string::npos, "veh",
-        "must be a non-empty name without '/'");
-  check(!speeds_mps.empty(), "speeds_mps", "must list at least one speed");
+  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+                        "must be a non-empty name without '/'");
+  ros_layer::checkParam(!speeds_mps.empty(), "speeds_mps", "must list at least one speed");
   for (double v : speeds_mps)
-    check(std::isfinite(v) && v > 0 && v <= 1.0, "speeds_mps", "each must be within (0, 1] m/s");
-  check(std::isfinite(distance_m) && distance_m > 0 && distance_m <= 20, "distance_m",
-        "must be within (0, 20] m");
-  check(source == "ground_truth" || source == "user", "source",
-        "must be 'ground_truth' (simulator) or 'user' (robot), not '" + source + "'");
-  check(std::isfinite(max_drift_m) && max_drift_m > 0, "max_drift_m", "must be > 0");
-  check(std::isfinite(radius_m) && radius_m > 0 && radius_m < 1, "radius_m",
-        "must be within (0, 1) m");
-  check(std::isfinite(command_rate_hz) && command_rate_hz >= 5, "command_rate_hz",
-        "must be >= 5 Hz (the wheel driver stops the wheels without commands)");
-  check(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s", "must be >= 0");
-  check(std::isfinite(timeout_factor) && timeout_factor >= 1.2, "timeout_factor", "must be >= 1.2");
+    ros_layer::checkParam(std::isfinite(v) && v > 0 && v <= 1.0, "speeds_mps",
+                          "each must be within (0, 1] m/s");
+  ros_layer::checkParam(std::isfinite(distance_m) && distance_m > 0 && distance_m <= 20,
+                        "distance_m", "must be within (0, 20] m");
+  ros_layer::checkParam(
+      source == "ground_truth" || source == "user", "source",
+      "must be 'ground_truth' (simulator) or 'user' (robot), not '" + source + "'");
+  ros_layer::checkParam(std::isfinite(max_drift_m) && max_drift_m > 0, "max_drift_m",
+                        "must be > 0");
+  ros_layer::checkParam(std::isfinite(radius_m) && radius_m > 0 && radius_m < 1, "radius_m",
+                        "must be within (0, 1) m");
+  ros_layer::checkParam(std::isfinite(command_rate_hz) && command_rate_hz >= 5, "command_rate_hz",
+                        "must be >= 5 Hz (the wheel driver stops the wheels without commands)");
+  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
+                        "must be >= 0");
+  ros_layer::checkParam(std::isfinite(timeout_factor) && timeout_factor >= 1.2, "timeout_factor",
+                        "must be >= 1.2");
 }
 
 namespace {

@@ -13,22 +13,22 @@ namespace autocal {
 namespace wheels {
 
 void WheelCalibrationNodeOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError("~" + key + ": " + what);
-  };
-  check(!veh.empty() && veh.find('/') == std::string::npos, "veh",
-        "must be a non-empty name without '/'");
-  check(!calibration_root.empty(), "calibration_root", "must not be empty");
-  check(image_transport == "compressed" || image_transport == "raw", "image_transport",
-        "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  check(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",
-        "must be >= 20 Hz");
-  check(std::isfinite(camera_stage_wait_s) && camera_stage_wait_s >= 0, "camera_stage_wait_s",
-        "must be >= 0");
-  check(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s", "must be >= 0");
-  check(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
-  check(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
-        "must be < 0.9 (negative: automatic)");
+  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+                        "must be a non-empty name without '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
+                        "image_transport",
+                        "must be 'compressed' or 'raw', not '" + image_transport + "'");
+  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",
+                        "must be >= 20 Hz");
+  ros_layer::checkParam(std::isfinite(camera_stage_wait_s) && camera_stage_wait_s >= 0,
+                        "camera_stage_wait_s", "must be >= 0");
+  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
+                        "must be >= 0");
+  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
+                        "must be > 0");
+  ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
+                        "must be < 0.9 (negative: automatic)");
   try {
     run.validate();
   } catch (const ConfigError& e) {

@@ -16,6 +16,9 @@ std::string defaultVeh(const ros::NodeHandle& nh) {
   const std::string last = slash == std::string::npos ? ns : ns.substr(slash + 1);
   return last.empty() ? "autobot" : last;
 }
+void checkParam(bool ok, const std::string& key, const std::string& what) {
+  checkConfig(ok, "~" + key, what);
+}
 
 namespace {
 std::string show(double v) { return formatNumber(v); }

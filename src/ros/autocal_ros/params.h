@@ -15,6 +15,9 @@ namespace ros_layer {
 /// in the root namespace).
 std::string defaultVeh(const ros::NodeHandle& nh);
 
+/// Throws ConfigError "~<key>: <what>" unless `ok`: a node's options name the private parameter.
+void checkParam(bool ok, const std::string& key, const std::string& what);
+
 class ParamReader {
  public:
   /// `pnh` is the node's private handle; `node_name` prefixes the echoed lines.

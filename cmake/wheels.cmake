@@ -75,3 +75,13 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/wheels/validate_straight.test
     DEPENDENCIES test_validate_straight validate_straight kinematics_node sim_node)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # make bench: the wheel stage over robot configs, autocal vs the paper alone (scripts/bench/wheels.sh).
+  add_executable(wheel_bench bench/wheel_bench.cpp)
+  target_link_libraries(wheel_bench autocal_test_support autocal_core autocal_sim_core)
+  target_include_directories(wheel_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  target_compile_definitions(wheel_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+  target_compile_options(wheel_bench PRIVATE ${AUTOCAL_WARNINGS})
+  set_target_properties(wheel_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
+endif()

@@ -64,3 +64,12 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/wheels/validate_straight.test
     DEPENDENCIES test_validate_straight validate_straight kinematics_node sim_node)
 endif()
+
+# In-lane refinement (paper 000 §5.2): the core, and the node that runs it while the robot drives.
+target_sources(autocal_core PRIVATE src/core/wheels/lane_refiner.cpp)
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_lane_refiner SOURCES test/wheels/test_lane_refiner.cpp LIBS autocal_core)
+  target_sources(autocal_test_support PRIVATE test/support/lane_in_sim.cpp)
+  autocal_core_gtest(test_lane_refiner_in_sim SOURCES test/wheels/test_lane_refiner_in_sim.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
+endif()

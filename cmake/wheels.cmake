@@ -73,3 +73,9 @@ if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_lane_refiner_in_sim SOURCES test/wheels/test_lane_refiner_in_sim.cpp
                      LIBS autocal_test_support autocal_core autocal_sim_core)
 endif()
+add_executable(lane_refinement_node
+  src/nodes/lane_refinement/lane_refinement_node.cpp
+  src/nodes/lane_refinement/lane_refinement_node_main.cpp)
+target_link_libraries(lane_refinement_node autocal_ros)
+target_compile_options(lane_refinement_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(lane_refinement_node)

@@ -79,3 +79,13 @@ add_executable(lane_refinement_node
 target_link_libraries(lane_refinement_node autocal_ros)
 target_compile_options(lane_refinement_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(lane_refinement_node)
+if(CATKIN_ENABLE_TESTING)
+  # One pass through ROS at real_time_factor 2 (stable_passes 1), judged by the truth.
+  add_executable(test_lane_refinement_node EXCLUDE_FROM_ALL test/wheels/test_lane_refinement_node.cpp)
+  target_link_libraries(test_lane_refinement_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_lane_refinement_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_lane_refinement_node)
+  add_dependencies(tests test_lane_refinement_node)
+  add_rostest(test/wheels/lane_refinement.test
+    DEPENDENCIES test_lane_refinement_node lane_refinement_node kinematics_node sim_node)
+endif()

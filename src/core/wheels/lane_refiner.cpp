@@ -34,39 +34,36 @@ void LaneRefinerOptions::validate() const {
   heading.validate();
   mount.validate();
   kinematics.validate();
-  auto check = [](bool ok, const char* key, const char* what) {
-    if (!ok) throw ConfigError(std::string(key) + ": " + what);
-  };
-  check(first_tag_id >= 0, "first_tag_id", "must be >= 0");
-  check(num_tags >= 0, "num_tags", "must be >= 0 (0: any tag after the first)");
-  check(start_max_distance_m > 0, "start_max_distance_m", "must be > 0 [m]");
-  check(start_max_heading_rad > 0 && start_max_heading_rad < max_heading_rad,
-        "start_max_heading_rad", "must be within (0, max_heading_rad) [rad]");
-  check(start_max_lateral_m > 0, "start_max_lateral_m", "must be > 0 [m]");
-  check(speed_mps > 0 && speed_mps <= 1.0, "speed_mps", "must be within (0, 1] [m/s]");
-  check(heading_gain_per_s > 0, "heading_gain_per_s", "must be > 0 [1/s]");
-  check(max_omega_radps > 0, "max_omega_radps", "must be > 0 [rad/s]");
-  check(orient_tolerance_rad > 0, "orient_tolerance_rad", "must be > 0 [rad]");
-  check(max_orient_s > 0, "max_orient_s", "must be > 0 [s]");
-  check(lateral_gain_rad_per_m >= 0, "lateral_gain_rad_per_m", "must be >= 0 [rad/m]");
-  check(max_lateral_correction_rad >= 0 && max_lateral_correction_rad < max_heading_rad,
-        "max_lateral_correction_rad", "must be within [0, max_heading_rad) [rad]");
-  check(settle_s >= 0, "settle_s", "must be >= 0 [s]");
-  check(straight_m > 0, "straight_m", "must be > 0 [m]");
-  check(max_straight_deviation_rad > 0, "max_straight_deviation_rad", "must be > 0 [rad]");
-  check(min_frames_per_part >= 3, "min_frames_per_part", "must be >= 3");
-  check(min_part_m > 0 && min_part_m <= straight_m, "min_part_m",
-        "must be within (0, straight_m] [m]");
-  check(max_part_deviation > 0 && max_part_deviation < 1, "max_part_deviation",
-        "must be within (0, 1)");
-  check(min_parts_per_pass >= 1, "min_parts_per_pass", "must be >= 1");
-  check(max_heading_rad > 0 && max_heading_rad < M_PI / 2, "max_heading_rad",
-        "must be within (0, pi/2) [rad]");
-  check(tags_lost_s > 0, "tags_lost_s", "must be > 0 [s]");
-  check(max_pass_s > 0, "max_pass_s", "must be > 0 [s]");
-  check(stable_passes >= 1, "stable_passes", "must be >= 1");
-  check(stable_tolerance >= 0, "stable_tolerance", "must be >= 0 [trim]");
-  check(apply_threshold >= 0, "apply_threshold", "must be >= 0 [trim]");
+  checkConfig(first_tag_id >= 0, "first_tag_id", "must be >= 0");
+  checkConfig(num_tags >= 0, "num_tags", "must be >= 0 (0: any tag after the first)");
+  checkConfig(start_max_distance_m > 0, "start_max_distance_m", "must be > 0 [m]");
+  checkConfig(start_max_heading_rad > 0 && start_max_heading_rad < max_heading_rad,
+              "start_max_heading_rad", "must be within (0, max_heading_rad) [rad]");
+  checkConfig(start_max_lateral_m > 0, "start_max_lateral_m", "must be > 0 [m]");
+  checkConfig(speed_mps > 0 && speed_mps <= 1.0, "speed_mps", "must be within (0, 1] [m/s]");
+  checkConfig(heading_gain_per_s > 0, "heading_gain_per_s", "must be > 0 [1/s]");
+  checkConfig(max_omega_radps > 0, "max_omega_radps", "must be > 0 [rad/s]");
+  checkConfig(orient_tolerance_rad > 0, "orient_tolerance_rad", "must be > 0 [rad]");
+  checkConfig(max_orient_s > 0, "max_orient_s", "must be > 0 [s]");
+  checkConfig(lateral_gain_rad_per_m >= 0, "lateral_gain_rad_per_m", "must be >= 0 [rad/m]");
+  checkConfig(max_lateral_correction_rad >= 0 && max_lateral_correction_rad < max_heading_rad,
+              "max_lateral_correction_rad", "must be within [0, max_heading_rad) [rad]");
+  checkConfig(settle_s >= 0, "settle_s", "must be >= 0 [s]");
+  checkConfig(straight_m > 0, "straight_m", "must be > 0 [m]");
+  checkConfig(max_straight_deviation_rad > 0, "max_straight_deviation_rad", "must be > 0 [rad]");
+  checkConfig(min_frames_per_part >= 3, "min_frames_per_part", "must be >= 3");
+  checkConfig(min_part_m > 0 && min_part_m <= straight_m, "min_part_m",
+              "must be within (0, straight_m] [m]");
+  checkConfig(max_part_deviation > 0 && max_part_deviation < 1, "max_part_deviation",
+              "must be within (0, 1)");
+  checkConfig(min_parts_per_pass >= 1, "min_parts_per_pass", "must be >= 1");
+  checkConfig(max_heading_rad > 0 && max_heading_rad < M_PI / 2, "max_heading_rad",
+              "must be within (0, pi/2) [rad]");
+  checkConfig(tags_lost_s > 0, "tags_lost_s", "must be > 0 [s]");
+  checkConfig(max_pass_s > 0, "max_pass_s", "must be > 0 [s]");
+  checkConfig(stable_passes >= 1, "stable_passes", "must be >= 1");
+  checkConfig(stable_tolerance >= 0, "stable_tolerance", "must be >= 0 [trim]");
+  checkConfig(apply_threshold >= 0, "apply_threshold", "must be >= 0 [trim]");
 }
 
 const char* name(LanePhase phase) {

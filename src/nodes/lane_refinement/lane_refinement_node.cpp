@@ -14,20 +14,22 @@ namespace autocal {
 namespace wheels {
 
 void LaneRefinementNodeOptions::validate() const {
-  auto check = [](bool ok, const std::string& key, const std::string& what) {
-    if (!ok) throw ConfigError("~" + key + ": " + what);
-  };
-  check(!veh.empty() && veh.find('/') == std::string::npos, "veh",
-        "must be a non-empty name without '/'");
-  check(!calibration_root.empty(), "calibration_root", "must not be empty");
-  check(image_transport == "compressed" || image_transport == "raw", "image_transport",
-        "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  check(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
-        "must be >= 10 Hz");
-  check(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
-  check(std::isfinite(service_wait_s) && service_wait_s >= 0, "service_wait_s", "must be >= 0");
-  check(std::isfinite(trim_poll_s) && trim_poll_s > 0, "trim_poll_s", "must be > 0");
-  check(std::isfinite(max_duration_s) && max_duration_s >= 0, "max_duration_s", "must be >= 0");
+  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+                        "must be a non-empty name without '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
+                        "image_transport",
+                        "must be 'compressed' or 'raw', not '" + image_transport + "'");
+  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
+                        "must be >= 10 Hz");
+  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
+                        "must be > 0");
+  ros_layer::checkParam(std::isfinite(service_wait_s) && service_wait_s >= 0, "service_wait_s",
+                        "must be >= 0");
+  ros_layer::checkParam(std::isfinite(trim_poll_s) && trim_poll_s > 0, "trim_poll_s",
+                        "must be > 0");
+  ros_layer::checkParam(std::isfinite(max_duration_s) && max_duration_s >= 0, "max_duration_s",
+                        "must be >= 0");
   try {
     refiner.validate();
   } catch (const ConfigError& e) {

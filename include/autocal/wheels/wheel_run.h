@@ -69,6 +69,9 @@ struct WheelRunOptions {
   /// Drives (forward and back alternate, at the two speeds) whose rates make the fit; later drives
   /// leave it as it is, so that the trim converges against fixed offsets.
   int fit_drives = 6;
+  /// A drive whose steady rate is off the other drives' line by more than this share is left out
+  /// of the fit (a bump, a slipping wheel) [1].
+  double max_fit_residual = 0.015;
 
   /// |heading| below which the robot counts as aligned with the tags [rad].
   double align_tolerance_rad = 0.035;

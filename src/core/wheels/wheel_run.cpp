@@ -55,6 +55,7 @@ void WheelRunOptions::validate() const {
   if (!(min_fit_window_s > 0 && min_fit_window_s <= drive_s - motor_settle_s))
     throw ConfigError("min_fit_window_s: must be within (0, drive_s - motor_settle_s] [s]");
   if (fit_drives < 2) throw ConfigError("fit_drives: must be >= 2 (a line needs two speeds)");
+  if (!(max_fit_residual > 0)) throw ConfigError("max_fit_residual: must be > 0");
   if (!(min_drive_s > 0 && min_drive_s <= drive_s))
     throw ConfigError("min_drive_s: must be within (0, drive_s] [s]");
   if (!(max_drive_turn_rad > 0 && max_drive_turn_rad < 1))
@@ -284,8 +285,28 @@ void WheelRun::recordDriveForFit() {
     if (!(offset >= 0 && offset < 0.6)) return;
     out = {true, a, offset, static_cast<int>(pts.size())};
   };
-  fit(fit_points_left_, fit_left_);
-  fit(fit_points_right_, fit_right_);
+  // Beyond the paper: a drive whose rate lies off the line of the others by more than
+  // max_fit_residual (a bump, a slipping wheel, a command that came late) is dropped from both
+  // wheels' fits, the worst first, while at least four drives remain.
+  auto residual = [](const std::array<double, 3>& p, const MotorFit& f) {
+    return std::abs(p[1] - f.slope * (p[0] - f.offset)) / std::max(p[1], 1e-9);
+  };
+  while (true) {
+    fit_left_ = fit_right_ = MotorFit();
+    fit(fit_points_left_, fit_left_);
+    fit(fit_points_right_, fit_right_);
+    if (!fit_left_.valid || !fit_right_.valid || fit_points_left_.size() <= 4) break;
+    size_t worst = 0;
+    double worst_residual = 0;
+    for (size_t i = 0; i < fit_points_left_.size(); ++i) {
+      const double r = std::max(residual(fit_points_left_[i], fit_left_),
+                                residual(fit_points_right_[i], fit_right_));
+      if (r > worst_residual) worst_residual = r, worst = i;
+    }
+    if (worst_residual <= options_.max_fit_residual) break;
+    fit_points_left_.erase(fit_points_left_.begin() + worst);
+    fit_points_right_.erase(fit_points_right_.begin() + worst);
+  }
 }
 
 void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {

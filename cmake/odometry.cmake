@@ -28,3 +28,10 @@ if(CATKIN_ENABLE_TESTING)
     UMBMARK_BINARY="$<TARGET_FILE:umbmark>")
   add_dependencies(test_odometry_umbmark_command umbmark)
 endif()
+
+# The UAH experiments driven by the robot (odometry::UahRun) and their test on the simulator's core.
+target_sources(autocal_core PRIVATE src/core/odometry/uah_run.cpp)
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
+                     LIBS autocal_core autocal_sim_core)
+endif()

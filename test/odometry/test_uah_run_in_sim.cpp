@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <random>
 
 #include "autocal/errors.h"
@@ -56,10 +57,15 @@ Outcome runUahInSim(const sim::RobotConfig& robot, const sim::WorldConfig& w,
   odometry::UahRun run(options);
   Outcome out;
   const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
-  const double control_dt = 0.01, encoder_dt = 1.0 / robot.encoder_rate_hz,
+  // The node's loop: 50 Hz, and a command applies one cycle after the readings it came from
+  // (message latency), as through ROS.
+  const double control_dt = 0.02, encoder_dt = 1.0 / robot.encoder_rate_hz,
                range_dt = 1.0 / robot.range_sensor.rate_hz;
   double next_encoder = 0, next_range = 0;
   bool reset = false;
+  std::deque<WheelDuties> pending;
+  const size_t delay_cycles =
+      std::getenv("AUTOCAL_DELAY") ? std::atoi(std::getenv("AUTOCAL_DELAY")) : 1;
   int32_t l0 = 0, r0 = 0;
   Pose2D run_start;
   bool was_straight_driving = false;
@@ -101,7 +107,9 @@ Outcome runUahInSim(const sim::RobotConfig& robot, const sim::WorldConfig& w,
         was_straight_driving = false;
       }
       const WheelDuties d = run.update(t);
-      simulation.setDuty(d.left, d.right);
+      pending.push_back(d);
+      simulation.setDuty(pending.front().left, pending.front().right);
+      if (pending.size() > delay_cycles) pending.pop_front();
       simulation.advance(control_dt);
       if (trace && run.describe().substr(0, 12) != last.substr(0, 12)) {
         const Pose2D p = simulation.pose();
@@ -110,7 +118,7 @@ Outcome runUahInSim(const sim::RobotConfig& robot, const sim::WorldConfig& w,
       }
       last = run.describe();
       if (std::getenv("AUTOCAL_TRACE_STRAIGHT") && straight_driving &&
-          std::fmod(t, 0.25) < control_dt / 2) {
+          (std::getenv("AUTOCAL_TRACE_ALL") || std::fmod(t, 0.25) < control_dt / 2)) {
         const Pose2D p = simulation.pose();
         std::fprintf(stderr, "  t %.2f (%.3f, %.3f, %.2f deg) duties %.3f %.3f ticks %d %d\n", t,
                      p.x_m, p.y_m, p.yaw_rad * 180 / M_PI, d.left, d.right,

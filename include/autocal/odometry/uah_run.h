@@ -44,6 +44,8 @@ struct UahRunOptions {
   double spin_rate_pulses_per_s = 30.0;
   /// The right wheel's pulse rate on the straight runs [pulses/s].
   double straight_rate_pulses_per_s = 90.0;
+  /// The straight run's rate rises from the spin's to its own over this time [s].
+  double straight_ramp_s = 1.5;
   /// Duty a rate-controlled wheel starts at, and the largest it may reach [1].
   double start_duty = 0.15;
   double max_duty = 0.7;
@@ -72,9 +74,11 @@ struct UahRunOptions {
   double min_range_spread_m = 0.02;
   /// Share of a turning experiment's range readings that may be dropouts or out of range.
   double max_invalid_range_fraction = 0.4;
-  /// Encoder sanity: a reading that moved a wheel faster than this is a reset or jump [pulses/s]
-  /// (plus a few pulses of slack).
-  double max_encoder_rate_pulses_per_s = 2000.0;
+  /// Encoder sanity: a wheel that moved faster than this between two readings (over at least
+  /// encoder_jump_window_s, since the two wheels' messages arrive apart) was reset or jumped
+  /// [pulses/s] (plus a few pulses of slack). A Duckiebot's wheel at full duty: ~600 pulses/s.
+  double max_encoder_rate_pulses_per_s = 1500.0;
+  double encoder_jump_window_s = 0.1;
   /// A driven wheel whose encoder has not moved for this long has stalled [s].
   double stall_s = 3.0;
   /// After a stop: wait until the encoders have been still this long, and at least settle_s [s].
@@ -136,6 +140,10 @@ class UahRun {
   const UahResult& result() const { return result_; }
   const std::vector<UahTurn>& turns() const { return turns_; }
   const std::vector<StraightRun>& straightRuns() const { return straight_runs_; }
+  /// The straight run under way or waiting for its length: 1-based, and the time its duties first
+  /// went out [s] (the robot stood still until then: a ground-truth helper measures from there).
+  int straightRun() const { return attempts_ + 1; }
+  double straightRunStartS() const { return motion_start_s_; }
   /// The round the current turn is in (1-based; 0 before a round is detected), the latest pulses
   /// per round of the current turn (0 until detected).
   int round() const;

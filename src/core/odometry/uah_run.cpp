@@ -62,6 +62,7 @@ void UahRunOptions::validate() const {
   checkConfig(heading_gain_duty_per_pulse >= 0, "heading_gain_duty_per_pulse", "must be >= 0");
   checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
               "must be >= 0");
+  checkConfig(straight_ramp_s > 0, "straight_ramp_s", "must be > 0 [s]");
   checkConfig(max_length_mismatch > 0 && max_length_mismatch < 1, "max_length_mismatch",
               "must be within (0, 1)");
   checkConfig(min_clearance_m >= 0, "min_clearance_m", "must be >= 0 [m]");
@@ -69,6 +70,7 @@ void UahRunOptions::validate() const {
   checkConfig(max_invalid_range_fraction >= 0 && max_invalid_range_fraction < 1,
               "max_invalid_range_fraction", "must be within [0, 1)");
   checkConfig(max_encoder_rate_pulses_per_s > 0, "max_encoder_rate_pulses_per_s", "must be > 0");
+  checkConfig(encoder_jump_window_s > 0, "encoder_jump_window_s", "must be > 0 [s]");
   checkConfig(stall_s > 0, "stall_s", "must be > 0 [s]");
   checkConfig(still_s > 0 && settle_s >= 0, "still_s", "still_s must be > 0, settle_s >= 0 [s]");
   checkConfig(encoder_timeout_s > 0, "encoder_timeout_s", "must be > 0 [s]");
@@ -106,7 +108,9 @@ void UahRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t r
                                      static_cast<std::uint32_t>(before));
   };
   const double dl = diff(left_ticks, raw_left_), dr = diff(right_ticks, raw_right_);
-  const double allowed = options_.max_encoder_rate_pulses_per_s * (stamp_s - encoder_stamp_s_) + 5;
+  const double allowed = options_.max_encoder_rate_pulses_per_s *
+                             std::max(stamp_s - encoder_stamp_s_, options_.encoder_jump_window_s) +
+                         5;
   if (std::abs(dl) > allowed || std::abs(dr) > allowed) {
     fail("encoder jump: left " + formatNumber(dl, 8) + ", right " + formatNumber(dr, 8) +
          " ticks in " + formatNumber(stamp_s - encoder_stamp_s_, 3) +
@@ -118,7 +122,15 @@ void UahRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t r
   if (dr != 0) last_change_right_s_ = stamp_s;
   if (dl != 0 || dr != 0) last_change_s_ = stamp_s;
   encoder_stamp_s_ = stamp_s;
-  if (motion_ != Motion::kNone) history_.push_back({stamp_s, left_, right_});
+  if (motion_ == Motion::kNone) return;
+  // The two wheels' messages arrive one after the other with the same stamp (the driver reads
+  // both at once): the second completes the first's reading instead of adding a half-updated one
+  // (a pulse rate's worth of false heading).
+  if (!history_.empty() && history_.back().stamp_s == stamp_s) {
+    history_.back() = {stamp_s, left_, right_};
+  } else {
+    history_.push_back({stamp_s, left_, right_});
+  }
 }
 
 void UahRun::addRange(double stamp_s, double range_m) {
@@ -263,11 +275,12 @@ void UahRun::startStraight(double now_s) {
   history_.push_back({encoder_stamp_s_, left_, right_});
   start_left_ = left_, start_right_ = right_;
   heading_integral_ = 0;
-  // Both wheels start at the duties the spin settled at (equal pulse rates there), the right one
-  // then follows the straight run's rate.
-  for (int s = 0; s < 2; ++s) {
-    duty_mag_[s] = spin_duty_[s] > 0 ? spin_duty_[s] : options_.start_duty;
-  }
+  // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
+  // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
+  // the heading transient small).
+  const double start =
+      spin_duty_[0] > 0 ? 0.5 * (spin_duty_[0] + spin_duty_[1]) : options_.start_duty;
+  duty_mag_[0] = duty_mag_[1] = start;
 }
 
 void UahRun::stop(double now_s) {
@@ -534,18 +547,18 @@ WheelDuties UahRun::update(double now_s) {
     stop(now_s);
     return duties_;
   }
-  follow(1, options_.straight_rate_pulses_per_s);
+  const double ramp = std::clamp(moving_s / options_.straight_ramp_s, 0.0, 1.0);
+  follow(1, options_.spin_rate_pulses_per_s +
+                ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s));
   checkStall(0);
   checkStall(1);
-  // The left duty moves with the right one, offset by the difference the spin found between the
-  // wheels at equal pulse rates; the PI on the heading error makes up the rest (deadbands, Ed).
-  const double offset = spin_duty_[0] > 0 ? spin_duty_[0] - spin_duty_[1] : 0.0;
+  // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
+  // the wheels' differences (deadbands, motor gains, Ed).
   const double error = dr - dl / Ed_;
   heading_integral_ += error * dt;
-  const double left =
-      std::clamp(duty_mag_[1] + offset + options_.heading_gain_duty_per_pulse * error +
-                     options_.heading_integral_duty_per_pulse_s * heading_integral_,
-                 0.0, options_.max_duty);
+  const double left = std::clamp(duty_mag_[1] + options_.heading_gain_duty_per_pulse * error +
+                                     options_.heading_integral_duty_per_pulse_s * heading_integral_,
+                                 0.0, options_.max_duty);
   duties_ = {straight_dir_ * left, straight_dir_ * duty_mag_[1]};
   return duties_;
 }

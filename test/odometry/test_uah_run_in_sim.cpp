@@ -181,10 +181,12 @@ void expectAccurate(const sim::RobotConfig& robot, const Outcome& o, const char*
     double truth = 2 * M_PI * true_b / (true_cL + true_cR);
     if (t.experiment == UahExperiment::kPivotLeftStopped) truth = 2 * M_PI * true_b / true_cR;
     if (t.experiment == UahExperiment::kPivotRightStopped) truth = 2 * M_PI * true_b / true_cL;
-    std::printf("[%s]   %-20s %.2f pulses/round (true %.2f, %+.2f), %d peaks, peak %.3f\n", label,
-                odometry::name(t.experiment), t.detection.pulses_per_round, truth,
-                t.detection.pulses_per_round - truth, t.detection.rounds_used,
-                t.detection.peak_correlation);
+    std::printf(
+        "[%s]   %-20s %.2f pulses/round (true %.2f, %+.2f), %d peaks, peak %.3f, decorrelates in "
+        "%.3f round\n",
+        label, odometry::name(t.experiment), t.detection.pulses_per_round, truth,
+        t.detection.pulses_per_round - truth, t.detection.rounds_used, t.detection.peak_correlation,
+        t.decorrelation_fraction);
     EXPECT_LT(std::abs(t.detection.pulses_per_round - truth), 1.0) << odometry::name(t.experiment);
   }
 }

@@ -72,6 +72,10 @@ struct UahRunOptions {
   /// A turn whose valid range readings spread (standard deviation) less than this shows a circular
   /// or featureless scene: refused as such when no whole round is found [m].
   double min_range_spread_m = 0.02;
+  /// A turn whose range autocorrelation takes more than this share of a round to fall below 0.3
+  /// shows one smooth wave per round (a circular or symmetric scene seen off-centre): refused. The
+  /// odometry world's turns take 0.07-0.11 of a round, the round wall's 0.21.
+  double max_decorrelation_fraction = 0.15;
   /// Share of a turning experiment's range readings that may be dropouts or out of range.
   double max_invalid_range_fraction = 0.4;
   /// Encoder sanity: a wheel that moved faster than this between two readings (over at least
@@ -112,6 +116,8 @@ struct UahTurn {
   RoundDetection detection;
   double pulses_turned = 0.0;
   int range_readings = 0, invalid_readings = 0;
+  /// Share of a round after which the range autocorrelation first falls below 0.3.
+  double decorrelation_fraction = 0.0;
 };
 
 class UahRun {
@@ -177,6 +183,8 @@ class UahRun {
   double wheelRate(int side, double window_s) const;
   /// Standard deviation of the current turn's valid range readings [m].
   double rangeSpreadM() const;
+  /// The current turn's decorrelation_fraction (see UahTurn).
+  double decorrelationFraction() const;
   /// Fails with the circular-scene reason when the ranges barely vary.
   void refuseFlatScene();
   DiffDriveParams headingParams() const;

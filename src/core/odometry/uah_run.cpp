@@ -66,6 +66,8 @@ void UahRunOptions::validate() const {
   checkConfig(max_length_mismatch > 0 && max_length_mismatch < 1, "max_length_mismatch",
               "must be within (0, 1)");
   checkConfig(min_clearance_m >= 0, "min_clearance_m", "must be >= 0 [m]");
+  checkConfig(max_decorrelation_fraction > 0 && max_decorrelation_fraction <= 0.5,
+              "max_decorrelation_fraction", "must be within (0, 0.5]");
   checkConfig(min_range_spread_m >= 0, "min_range_spread_m", "must be >= 0 [m]");
   checkConfig(max_invalid_range_fraction >= 0 && max_invalid_range_fraction < 1,
               "max_invalid_range_fraction", "must be within [0, 1)");
@@ -239,6 +241,18 @@ double UahRun::rangeSpreadM() const {
   return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
 }
 
+double UahRun::decorrelationFraction() const {
+  const RoundDetectionOptions det = detectionFor(experiment_);
+  double first = 0;
+  const std::vector<double> x = resampleOnPulses(turnRangeSamples(), det, &first);
+  const int max_lag = static_cast<int>(det.expected_pulses_per_round / 2);
+  const std::vector<double> r = normalizedAutocorrelation(x, max_lag);
+  for (int k = 1; k < static_cast<int>(r.size()); ++k) {
+    if (std::isfinite(r[k]) && r[k] < 0.3) return k / det.expected_pulses_per_round;
+  }
+  return 0.5;
+}
+
 void UahRun::refuseFlatScene() {
   const double spread = rangeSpreadM();
   if (spread >= options_.min_range_spread_m) return;
@@ -321,6 +335,20 @@ void UahRun::finishTurn() {
     refuseFlatScene();
     fail(what + e.what());
   }
+  // A circular or symmetric scene seen from off its centre (a pivot, a spin that drifts) gives one
+  // smooth wave per round: its autocorrelation has a round peak, but so wide that the round is
+  // not told apart from its neighbours. A scene with features decorrelates within a few % of a
+  // round (§2.1: "the obstacles found should not be uniform").
+  turn.decorrelation_fraction = decorrelationFraction();
+  if (turn.decorrelation_fraction > options_.max_decorrelation_fraction) {
+    fail(what + "the range changes only slowly as the robot turns (it takes " +
+         formatNumber(100 * turn.decorrelation_fraction, 3) +
+         " % of a round to decorrelate, limit " +
+         formatNumber(100 * options_.max_decorrelation_fraction, 3) +
+         " %): the scene around the robot is circular, symmetric or featureless, so the round "
+         "cannot be located precisely (paper 002 §3.1); place walls or boxes at different "
+         "distances");
+  }
   if (turn.detection.rounds_used < std::min(options_.rounds, 2)) {
     fail(what + "only " + std::to_string(turn.detection.rounds_used) +
          " round peaks agreed in the autocorrelation (the scene changed while turning?)");
@@ -371,9 +399,17 @@ void UahRun::onSettled(double now_s) {
     return;
   }
   // A straight run: its pulses and heading are final; the caller measures the length.
+  // The heading from whole ticks jumps by a pulse's worth (0.9 deg on a Duckiebot) as either
+  // encoder steps: a centred mean over 5 readings (~0.17 s at 30 Hz) keeps the heading and
+  // removes most of that quantisation before §2.3's threshold is applied.
   std::vector<std::pair<double, double>> cumulative;
-  for (const auto& s : history_)
-    cumulative.push_back({s.left - start_left_, s.right - start_right_});
+  const int n = static_cast<int>(history_.size()), half = 2;
+  for (int i = 0; i < n; ++i) {
+    const int lo = std::max(0, i - half), hi = std::min(n - 1, i + half);
+    double l = 0, r = 0;
+    for (int j = lo; j <= hi; ++j) l += history_[j].left, r += history_[j].right;
+    cumulative.push_back({l / (hi - lo + 1) - start_left_, r / (hi - lo + 1) - start_right_});
+  }
   run_right_pulses_ = std::abs(history_.back().right - start_right_);
   run_max_dev_rad_ = maxHeadingDeviationRad(cumulative, headingParams());
   motion_ = Motion::kNone;

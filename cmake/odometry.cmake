@@ -28,3 +28,33 @@ if(CATKIN_ENABLE_TESTING)
     UMBMARK_BINARY="$<TARGET_FILE:umbmark>")
   add_dependencies(test_odometry_umbmark_command umbmark)
 endif()
+
+# The UAH experiments driven by the robot (odometry::UahRun) and their test on the simulator's core.
+target_sources(autocal_core PRIVATE src/core/odometry/uah_run.cpp)
+if(CATKIN_ENABLE_TESTING)
+  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
+                     LIBS autocal_core autocal_sim_core)
+endif()
+
+# The robot's UAH stage, and the simulator's tape measure for its straight runs.
+add_executable(odometry_calibration_node
+  src/nodes/odometry_calibration/odometry_calibration_node.cpp
+  src/nodes/odometry_calibration/odometry_calibration_node_main.cpp)
+target_link_libraries(odometry_calibration_node autocal_ros)
+target_compile_options(odometry_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(odometry_calibration_node)
+add_executable(straight_length_helper src/nodes/odometry_calibration/straight_length_helper.cpp)
+target_link_libraries(straight_length_helper autocal_ros)
+target_compile_options(straight_length_helper PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(straight_length_helper)
+
+if(CATKIN_ENABLE_TESTING)
+  # The UAH stage through ROS in the simulator (odometry_node.test), judged by the robot config.
+  add_executable(test_odometry_node EXCLUDE_FROM_ALL test/odometry/test_odometry_node.cpp)
+  target_link_libraries(test_odometry_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_odometry_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_odometry_node)
+  add_dependencies(tests test_odometry_node)
+  add_rostest(test/odometry/odometry_node.test
+    DEPENDENCIES test_odometry_node odometry_calibration_node straight_length_helper sim_node)
+endif()

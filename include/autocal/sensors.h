@@ -13,6 +13,15 @@ struct EncoderReading {
   int ticks_per_revolution = 0;  ///< resolution [ticks/rev]
 };
 
+/// One reading of a range sensor (REP 117: +inf nothing within range, -inf too close, NaN
+/// invalid) with the sensor's limits.
+struct RangeReading {
+  double stamp_s = 0.0;      ///< [s]
+  double range_m = 0.0;      ///< [m]
+  double min_range_m = 0.0;  ///< [m]
+  double max_range_m = 0.0;  ///< [m]
+};
+
 /// Duties of the two motors, −1..1 (Duckietown's wheels_cmd vel_left/vel_right).
 struct WheelDuties {
   double left = 0.0;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 
@@ -198,4 +199,21 @@ TEST(MsgConversion, PlanarPosesAndTime) {
   EXPECT_NEAR(q.w, std::sqrt(0.5), 1e-12);
   EXPECT_DOUBLE_EQ(toSeconds(toRosTime(12.5)), 12.5);
   EXPECT_EQ(toRosTime(-1.0), ros::Time(0));
+}
+
+TEST(MsgConversion, RangeKeepsRep117Values) {
+  sensor_msgs::Range msg;
+  msg.header.stamp = ros::Time(12, 500000000);
+  msg.min_range = 0.03f;
+  msg.max_range = 2.0f;
+  msg.range = 1.25f;
+  RangeReading r = fromRangeMsg(msg);
+  EXPECT_DOUBLE_EQ(r.stamp_s, 12.5);
+  EXPECT_FLOAT_EQ(r.range_m, 1.25);
+  EXPECT_FLOAT_EQ(r.min_range_m, 0.03);
+  EXPECT_FLOAT_EQ(r.max_range_m, 2.0);
+  msg.range = std::numeric_limits<float>::infinity();
+  EXPECT_TRUE(std::isinf(fromRangeMsg(msg).range_m) && fromRangeMsg(msg).range_m > 0);
+  msg.range = -std::numeric_limits<float>::infinity();
+  EXPECT_TRUE(std::isinf(fromRangeMsg(msg).range_m) && fromRangeMsg(msg).range_m < 0);
 }

@@ -104,6 +104,15 @@ dtmsg::WheelEncoderStamped toEncoderMsg(const EncoderReading& reading,
   return msg;
 }
 
+RangeReading fromRangeMsg(const sensor_msgs::Range& msg) {
+  RangeReading r;
+  r.stamp_s = toSeconds(msg.header.stamp);
+  r.range_m = msg.range;  // float → double keeps ±inf and NaN (REP 117)
+  r.min_range_m = msg.min_range;
+  r.max_range_m = msg.max_range;
+  return r;
+}
+
 WheelDuties fromWheelsCmd(const dtmsg::WheelsCmdStamped& msg) {
   return WheelDuties{msg.vel_left, msg.vel_right};
 }

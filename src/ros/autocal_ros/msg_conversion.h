@@ -8,6 +8,7 @@
 #include <geometry_msgs/Transform.h>
 #include <ros/time.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Range.h>
 
 #include <string>
 
@@ -41,6 +42,7 @@ std::string cameraInfoYaml(const CameraIntrinsics& intrinsics, const std::string
 /// Throws InputError for a resolution of 0 (the reading cannot be turned into an angle).
 EncoderReading fromEncoderMsg(const dtmsg::WheelEncoderStamped& msg);
 dtmsg::WheelEncoderStamped toEncoderMsg(const EncoderReading& reading, const std::string& frame_id);
+RangeReading fromRangeMsg(const sensor_msgs::Range& msg);
 WheelDuties fromWheelsCmd(const dtmsg::WheelsCmdStamped& msg);
 dtmsg::WheelsCmdStamped toWheelsCmd(const WheelDuties& duties, const ros::Time& stamp);
 /// v and omega as they are (a non-finite value is the caller's to refuse).

@@ -1,0 +1,238 @@
+// The UAH odometry calibration driven by the robot itself (paper 002 §2), ROS-free:
+//   pivot_left_stopped   the right wheel drives, the robot pivots on its stopped left wheel; whole
+//                        rounds are found by the range autocorrelation (§2.1, detectWholeRound),
+//                        which also tells when to stop (after rounds + 1 detected rounds, so the
+//                        robot faces where it started and `rounds` peaks enter the refinement);
+//   pivot_right_stopped  the same on the stopped right wheel; both repeated pivot_experiments
+//                        times give Ed (§2.2);
+//   spin                 both wheels at the same pulse rate, opposite: the spin-in-place pulses
+//                        per round give the wheelbase (§2.3);
+//   straight             straight runs of about straight_length_m (by the nominal right wheel),
+//                        alternately forward and back on the same line, heading held by the
+//                        encoders with the Ed just found; after each the caller gives the run's
+//                        true start-to-end length (setStraightLength: measured by a person, or in
+//                        the simulator by a ground-truth helper); runs whose heading strayed
+//                        beyond the threshold are rejected and repeated, up to a bound (§2.3).
+// The result is computeUah's. The caller feeds time, encoder readings and range readings and
+// commands the duties update() returns; a motion's clock starts at the first update() that returns
+// its duties. Failures throw CalibrationError (and the run stays failed with zero duties).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "autocal/odometry/dead_reckoning.h"
+#include "autocal/odometry/uah.h"
+#include "autocal/sensors.h"
+
+namespace autocal {
+namespace odometry {
+
+struct UahRunOptions {
+  /// The robot's parameters before the calibration: the expected pulses per round (§2.1's N_t)
+  /// and the straight run's pulse target come from them.
+  DiffDriveParams nominal;
+  /// Whole rounds of each pivot or spin experiment that enter the correlation (the robot turns
+  /// one more, see above).
+  int rounds = 3;
+  /// Pivot experiments per stopped wheel (§3.1: three iterations).
+  int pivot_experiments = 2;
+  /// Moving wheel's pulse rate while pivoting, and each wheel's while spinning [pulses/s]: a few
+  /// pulses per range reading, so that the range profile is sampled densely on the pulse axis.
+  double pivot_rate_pulses_per_s = 60.0;
+  double spin_rate_pulses_per_s = 30.0;
+  /// The right wheel's pulse rate on the straight runs [pulses/s].
+  double straight_rate_pulses_per_s = 90.0;
+  /// The straight run's rate rises from the spin's to its own over this time [s].
+  double straight_ramp_s = 1.5;
+  /// Duty a rate-controlled wheel starts at, and the largest it may reach [1].
+  double start_duty = 0.15;
+  double max_duty = 0.7;
+  /// How fast a wheel's duty follows its pulse-rate error [duty/s at 100 % rate error].
+  double rate_gain_per_s = 0.3;
+  /// Straight runs: the distance to drive, by the nominal right wheel [m] (the free line needed);
+  /// accepted runs wanted; extra runs allowed for rejected ones.
+  double straight_length_m = 3.0;
+  int straight_runs = 2;
+  int max_straight_retries = 2;
+  /// §2.3: runs whose heading strayed beyond this are rejected.
+  StraightRunOptions straight;
+  /// Heading hold on the straight runs: left duty += gain·(N_R − N_L/Ed) [duty/pulse], plus its
+  /// integral [duty/(pulse·s)].
+  double heading_gain_duty_per_pulse = 0.01;
+  double heading_integral_duty_per_pulse_s = 0.03;
+  /// A given length this far from the one the nominal pulses say means a cut-short run or a wrong
+  /// measurement [fraction].
+  double max_length_mismatch = 0.25;
+  /// Forward straight runs stop and fail when a valid range reading is this close [m].
+  double min_clearance_m = 0.12;
+  /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
+  RoundDetectionOptions detection;
+  /// A turn whose valid range readings spread (standard deviation) less than this shows a circular
+  /// or featureless scene: refused as such when no whole round is found [m].
+  double min_range_spread_m = 0.02;
+  /// A turn whose range autocorrelation takes more than this share of a round to fall below 0.3
+  /// shows one smooth wave per round (a circular or symmetric scene seen off-centre): refused. The
+  /// odometry world's turns take 0.07-0.11 of a round, the round wall's 0.21.
+  double max_decorrelation_fraction = 0.15;
+  /// Share of a turning experiment's range readings that may be dropouts or out of range.
+  double max_invalid_range_fraction = 0.4;
+  /// Encoder sanity: a wheel that moved faster than this between two readings (over at least
+  /// encoder_jump_window_s, since the two wheels' messages arrive apart) was reset or jumped
+  /// [pulses/s] (plus a few pulses of slack). A Duckiebot's wheel at full duty: ~600 pulses/s.
+  double max_encoder_rate_pulses_per_s = 1500.0;
+  double encoder_jump_window_s = 0.1;
+  /// A driven wheel whose encoder has not moved for this long has stalled [s].
+  double stall_s = 3.0;
+  /// After a stop: wait until the encoders have been still this long, and at least settle_s [s].
+  double still_s = 0.2;
+  double settle_s = 0.4;
+  /// Silence of a sensor (while needed) that fails the run [s].
+  double encoder_timeout_s = 2.0;
+  double range_timeout_s = 2.0;
+  /// Bound of the whole run [s] (0: none) and of waiting for a straight run's length (0: none).
+  double max_duration_s = 1200.0;
+  double length_timeout_s = 0.0;
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+enum class UahExperiment {
+  kWait,
+  kPivotLeftStopped,
+  kPivotRightStopped,
+  kSpin,
+  kStraight,
+  kDone,
+  kFailed
+};
+/// "wait", "pivot_left_stopped", "pivot_right_stopped", "spin", "straight", "done", "failed".
+const char* name(UahExperiment experiment);
+
+/// One turning experiment's outcome.
+struct UahTurn {
+  UahExperiment experiment = UahExperiment::kWait;
+  RoundDetection detection;
+  double pulses_turned = 0.0;
+  int range_readings = 0, invalid_readings = 0;
+  /// Share of a round after which the range autocorrelation first falls below 0.3.
+  double decorrelation_fraction = 0.0;
+};
+
+class UahRun {
+ public:
+  /// Throws ConfigError on bad options.
+  explicit UahRun(const UahRunOptions& options);
+
+  /// Cumulative ticks (wrapping 32-bit counts are unwrapped). Throws CalibrationError on a reset or
+  /// jump. Stamps going back are dropped.
+  void addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
+  /// A range reading (REP 117: ±inf, NaN, out of range are dropouts).
+  void addRange(double stamp_s, double range_m);
+  /// Whether the run waits for the true length of the straight run just driven.
+  bool needsStraightLength() const { return awaiting_length_; }
+  /// The true start-to-end length of that run [m]. Throws InputError when none is awaited or the
+  /// length is not a positive number, CalibrationError when it contradicts the pulses.
+  void setStraightLength(double length_m);
+  /// Advances the run; returns the duties to command now (zero when done or failed).
+  WheelDuties update(double now_s);
+
+  UahExperiment experiment() const { return experiment_; }
+  bool done() const { return experiment_ == UahExperiment::kDone; }
+  bool failed() const { return experiment_ == UahExperiment::kFailed; }
+  const std::string& failure() const { return failure_; }
+  /// Valid once done().
+  const UahResult& result() const { return result_; }
+  const std::vector<UahTurn>& turns() const { return turns_; }
+  const std::vector<StraightRun>& straightRuns() const { return straight_runs_; }
+  /// The straight run under way or waiting for its length: 1-based, and the time its duties first
+  /// went out [s] (the robot stood still until then: a ground-truth helper measures from there).
+  int straightRun() const { return attempts_ + 1; }
+  double straightRunStartS() const { return motion_start_s_; }
+  /// The round the current turn is in (1-based; 0 before a round is detected), the latest pulses
+  /// per round of the current turn (0 until detected).
+  int round() const;
+  double pulsesPerRound() const { return online_ppr_; }
+  /// 0..1, a rough share of the run done.
+  double progress() const;
+  double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
+  /// One line: experiment, counts, last figures.
+  std::string describe() const;
+
+ private:
+  enum class Motion { kNone, kTurn, kDrive, kSettle };
+  struct Sample {
+    double stamp_s;
+    double left, right;  // unwrapped ticks
+  };
+
+  [[noreturn]] void fail(const std::string& why);
+  void startTurn(UahExperiment experiment, double now_s);
+  void startStraight(double now_s);
+  void stop(double now_s);
+  bool settled(double now_s) const;
+  void onSettled(double now_s);
+  void finishTurn();
+  void finishStraight(double length_m);
+  void nextAfterTurns(double now_s);
+  void finish();
+  double turnPulses(const Sample& s) const;
+  std::vector<RangeSample> turnRangeSamples() const;
+  RoundDetectionOptions detectionFor(UahExperiment experiment) const;
+  double wheelRate(int side, double window_s) const;
+  /// Standard deviation of the current turn's valid range readings [m].
+  double rangeSpreadM() const;
+  /// The current turn's decorrelation_fraction (see UahTurn).
+  double decorrelationFraction() const;
+  /// Fails with the circular-scene reason when the ranges barely vary.
+  void refuseFlatScene();
+  DiffDriveParams headingParams() const;
+
+  UahRunOptions options_;
+  UahExperiment experiment_ = UahExperiment::kWait;
+  Motion motion_ = Motion::kNone;
+  std::string failure_;
+  UahResult result_;
+
+  bool started_ = false;
+  double start_s_ = 0, last_now_s_ = 0;
+  bool have_encoders_ = false;
+  double encoder_stamp_s_ = -1, last_encoder_arrival_s_ = 0, last_range_arrival_s_ = 0;
+  std::int32_t raw_left_ = 0, raw_right_ = 0;
+  double left_ = 0, right_ = 0;  // unwrapped
+  double last_change_left_s_ = 0, last_change_right_s_ = 0, last_change_s_ = 0;
+  std::vector<Sample> history_;  // the current motion's encoder samples
+
+  // motion
+  WheelDuties duties_;
+  bool clock_started_ = true;
+  double motion_start_s_ = 0, stop_s_ = -1e9;
+  double duty_mag_[2] = {0, 0};
+  double start_left_ = 0, start_right_ = 0;
+
+  // turning
+  int pivot_done_[2] = {0, 0};  // experiments done with the left / right wheel stopped
+  std::vector<std::array<double, 2>> ranges_;  // stamp, range
+  int invalid_ranges_ = 0;
+  double online_ppr_ = 0, next_check_pulses_ = 0, turn_target_pulses_ = 0;
+  std::string last_detection_error_;
+  std::vector<double> right_ppr_left_stopped_, left_ppr_right_stopped_;
+  double Ed_ = 1.0;
+  double spin_ppr_ = 0;
+  std::vector<UahTurn> turns_;
+  double spin_duty_[2] = {0, 0};
+
+  // straight
+  int straight_dir_ = 1;
+  int accepted_ = 0, attempts_ = 0;
+  double heading_integral_ = 0, last_update_s_ = 0;
+  double max_heading_dev_rad_ = 0;
+  bool awaiting_length_ = false;
+  double awaiting_since_s_ = 0;
+  double run_right_pulses_ = 0, run_max_dev_rad_ = 0;
+  std::vector<StraightRun> straight_runs_;
+};
+
+}  // namespace odometry
+}  // namespace autocal

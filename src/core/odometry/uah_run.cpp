@@ -1,0 +1,631 @@
+// The UAH experiments driven by the robot (paper 002 §2.1–2.3); see uah_run.h.
+#include "autocal/odometry/uah_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace odometry {
+
+namespace {
+constexpr double kMaxSettleS = 3.0;
+constexpr double kRateWindowS = 0.5;
+std::string deg(double rad) { return formatNumber(rad * 180.0 / M_PI, 3) + " deg"; }
+bool isTurn(UahExperiment e) {
+  return e == UahExperiment::kPivotLeftStopped || e == UahExperiment::kPivotRightStopped ||
+         e == UahExperiment::kSpin;
+}
+}  // namespace
+
+const char* name(UahExperiment experiment) {
+  switch (experiment) {
+    case UahExperiment::kWait:
+      return "wait";
+    case UahExperiment::kPivotLeftStopped:
+      return "pivot_left_stopped";
+    case UahExperiment::kPivotRightStopped:
+      return "pivot_right_stopped";
+    case UahExperiment::kSpin:
+      return "spin";
+    case UahExperiment::kStraight:
+      return "straight";
+    case UahExperiment::kDone:
+      return "done";
+    case UahExperiment::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+void UahRunOptions::validate() const {
+  nominal.validate();
+  straight.validate();
+  checkConfig(rounds >= 1 && rounds <= 20, "rounds", "must be within [1, 20]");
+  checkConfig(pivot_experiments >= 1 && pivot_experiments <= 10, "pivot_experiments",
+              "must be within [1, 10]");
+  checkConfig(pivot_rate_pulses_per_s > 0, "pivot_rate_pulses_per_s", "must be > 0 [pulses/s]");
+  checkConfig(spin_rate_pulses_per_s > 0, "spin_rate_pulses_per_s", "must be > 0 [pulses/s]");
+  checkConfig(straight_rate_pulses_per_s > 0, "straight_rate_pulses_per_s",
+              "must be > 0 [pulses/s]");
+  checkConfig(start_duty >= 0 && start_duty < 1, "start_duty", "must be within [0, 1)");
+  checkConfig(max_duty > start_duty && max_duty <= 1, "max_duty", "must be within (start_duty, 1]");
+  checkConfig(rate_gain_per_s > 0 && rate_gain_per_s < 5, "rate_gain_per_s",
+              "must be within (0, 5) [1/s]");
+  checkConfig(straight_length_m > 0.2 && straight_length_m < 50, "straight_length_m",
+              "must be within (0.2, 50) [m]");
+  checkConfig(straight_runs >= 1, "straight_runs", "must be >= 1");
+  checkConfig(max_straight_retries >= 0, "max_straight_retries", "must be >= 0");
+  checkConfig(heading_gain_duty_per_pulse >= 0, "heading_gain_duty_per_pulse", "must be >= 0");
+  checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
+              "must be >= 0");
+  checkConfig(straight_ramp_s > 0, "straight_ramp_s", "must be > 0 [s]");
+  checkConfig(max_length_mismatch > 0 && max_length_mismatch < 1, "max_length_mismatch",
+              "must be within (0, 1)");
+  checkConfig(min_clearance_m >= 0, "min_clearance_m", "must be >= 0 [m]");
+  checkConfig(max_decorrelation_fraction > 0 && max_decorrelation_fraction <= 0.5,
+              "max_decorrelation_fraction", "must be within (0, 0.5]");
+  checkConfig(min_range_spread_m >= 0, "min_range_spread_m", "must be >= 0 [m]");
+  checkConfig(max_invalid_range_fraction >= 0 && max_invalid_range_fraction < 1,
+              "max_invalid_range_fraction", "must be within [0, 1)");
+  checkConfig(max_encoder_rate_pulses_per_s > 0, "max_encoder_rate_pulses_per_s", "must be > 0");
+  checkConfig(encoder_jump_window_s > 0, "encoder_jump_window_s", "must be > 0 [s]");
+  checkConfig(stall_s > 0, "stall_s", "must be > 0 [s]");
+  checkConfig(still_s > 0 && settle_s >= 0, "still_s", "still_s must be > 0, settle_s >= 0 [s]");
+  checkConfig(encoder_timeout_s > 0, "encoder_timeout_s", "must be > 0 [s]");
+  checkConfig(range_timeout_s > 0, "range_timeout_s", "must be > 0 [s]");
+  checkConfig(max_duration_s >= 0, "max_duration_s", "must be >= 0 [s] (0: no limit)");
+  checkConfig(length_timeout_s >= 0, "length_timeout_s", "must be >= 0 [s] (0: no limit)");
+  RoundDetectionOptions d = detection;
+  d.expected_pulses_per_round = 100;  // set per experiment
+  d.validate();
+}
+
+UahRun::UahRun(const UahRunOptions& options) : options_(options) { options_.validate(); }
+
+void UahRun::fail(const std::string& why) {
+  experiment_ = UahExperiment::kFailed;
+  motion_ = Motion::kNone;
+  duties_ = {};
+  awaiting_length_ = false;
+  failure_ = why;
+  throw CalibrationError(why);
+}
+
+void UahRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
+  if (failed() || done()) return;
+  if (!have_encoders_) {
+    have_encoders_ = true;
+    raw_left_ = left_ticks, raw_right_ = right_ticks;
+    encoder_stamp_s_ = last_change_left_s_ = last_change_right_s_ = last_change_s_ = stamp_s;
+    return;
+  }
+  if (stamp_s < encoder_stamp_s_) return;
+  // 32-bit counts wrap around: the difference modulo 2^32 is the motion.
+  const auto diff = [](std::int32_t now, std::int32_t before) {
+    return static_cast<std::int32_t>(static_cast<std::uint32_t>(now) -
+                                     static_cast<std::uint32_t>(before));
+  };
+  const double dl = diff(left_ticks, raw_left_), dr = diff(right_ticks, raw_right_);
+  const double allowed = options_.max_encoder_rate_pulses_per_s *
+                             std::max(stamp_s - encoder_stamp_s_, options_.encoder_jump_window_s) +
+                         5;
+  if (std::abs(dl) > allowed || std::abs(dr) > allowed) {
+    fail("encoder jump: left " + formatNumber(dl, 8) + ", right " + formatNumber(dr, 8) +
+         " ticks in " + formatNumber(stamp_s - encoder_stamp_s_, 3) +
+         " s (an encoder reset or a glitch); the pulse counts cannot be trusted");
+  }
+  raw_left_ = left_ticks, raw_right_ = right_ticks;
+  left_ += dl, right_ += dr;
+  if (dl != 0) last_change_left_s_ = stamp_s;
+  if (dr != 0) last_change_right_s_ = stamp_s;
+  if (dl != 0 || dr != 0) last_change_s_ = stamp_s;
+  encoder_stamp_s_ = stamp_s;
+  if (motion_ == Motion::kNone) return;
+  // The two wheels' messages arrive one after the other with the same stamp (the driver reads
+  // both at once): the second completes the first's reading instead of adding a half-updated one
+  // (a pulse rate's worth of false heading).
+  if (!history_.empty() && history_.back().stamp_s == stamp_s) {
+    history_.back() = {stamp_s, left_, right_};
+  } else {
+    history_.push_back({stamp_s, left_, right_});
+  }
+}
+
+void UahRun::addRange(double stamp_s, double range_m) {
+  if (failed() || done()) return;
+  last_range_arrival_s_ = std::max(last_range_arrival_s_, stamp_s);
+  const bool valid = std::isfinite(range_m) && range_m >= options_.detection.min_range_m &&
+                     range_m <= options_.detection.max_range_m;
+  if (isTurn(experiment_) && motion_ != Motion::kNone) {
+    ranges_.push_back({stamp_s, range_m});
+    if (!valid) ++invalid_ranges_;
+  }
+  if (experiment_ == UahExperiment::kStraight && motion_ == Motion::kDrive && straight_dir_ > 0 &&
+      clock_started_ && stamp_s >= motion_start_s_ && valid && range_m < options_.min_clearance_m) {
+    fail("straight run cut short: an obstacle " + formatNumber(range_m, 3) + " m ahead after " +
+         formatNumber(std::abs(right_ - start_right_) * options_.nominal.right_m_per_pulse, 3) +
+         " m (needs " + formatNumber(options_.straight_length_m, 3) + " m of free straight line)");
+  }
+}
+
+DiffDriveParams UahRun::headingParams() const {
+  // The heading only needs c_L/c_R (Ed) and b in the same units: c_R nominal, b from the spin.
+  DiffDriveParams p = options_.nominal;
+  p.left_m_per_pulse = p.right_m_per_pulse / Ed_;
+  if (spin_ppr_ > 0) {
+    p.wheelbase_m = spin_ppr_ * (p.left_m_per_pulse + p.right_m_per_pulse) / (2 * M_PI);
+  }
+  return p;
+}
+
+RoundDetectionOptions UahRun::detectionFor(UahExperiment experiment) const {
+  // §2.1's N_t from the nominal parameters: 2π·b/c on a stopped wheel, π·b/c̄ spinning in place.
+  RoundDetectionOptions d = options_.detection;
+  const DiffDriveParams& n = options_.nominal;
+  switch (experiment) {
+    case UahExperiment::kPivotLeftStopped:
+      d.expected_pulses_per_round = 2 * M_PI * n.wheelbase_m / n.right_m_per_pulse;
+      break;
+    case UahExperiment::kPivotRightStopped:
+      d.expected_pulses_per_round = 2 * M_PI * n.wheelbase_m / n.left_m_per_pulse;
+      break;
+    default:
+      d.expected_pulses_per_round =
+          2 * M_PI * n.wheelbase_m / (n.left_m_per_pulse + n.right_m_per_pulse);
+  }
+  return d;
+}
+
+double UahRun::turnPulses(const Sample& s) const {
+  const double dl = s.left - start_left_, dr = s.right - start_right_;
+  switch (experiment_) {
+    case UahExperiment::kPivotLeftStopped:
+      return dr;
+    case UahExperiment::kPivotRightStopped:
+      return dl;
+    default:
+      // The spin turns by (N_R·c_R − N_L·c_L)/b = c_R·(N_R − N_L/Ed)/b (N_L < 0 here). On the pulse
+      // axis p = (N_R − N_L/Ed)·Ed/(1 + Ed) a round is 2π·b/(c_L + c_R) pulses whether or not the
+      // two wheels kept exactly the same rate, and p = N when they did (§2.3's N_s).
+      return (dr - dl / Ed_) * Ed_ / (1 + Ed_);
+  }
+}
+
+std::vector<RangeSample> UahRun::turnRangeSamples() const {
+  // Each reading gets the pulses interpolated at its stamp between the encoder readings around it
+  // (§2.1: the range as a function of the moving wheel's pulses).
+  std::vector<RangeSample> out;
+  if (history_.size() < 2) return out;
+  size_t j = 0;
+  for (const auto& r : ranges_) {
+    const double t = r[0];
+    if (t < history_.front().stamp_s || t > history_.back().stamp_s) continue;
+    while (j + 1 < history_.size() && history_[j + 1].stamp_s < t) ++j;
+    if (j + 1 >= history_.size()) break;
+    const Sample& a = history_[j];
+    const Sample& b = history_[j + 1];
+    const double span = b.stamp_s - a.stamp_s;
+    const double f = span > 0 ? (t - a.stamp_s) / span : 0.0;
+    const double pa = turnPulses(a), pb = turnPulses(b);
+    out.push_back({pa + f * (pb - pa), r[1]});
+  }
+  return out;
+}
+
+double UahRun::wheelRate(int side, double window_s) const {
+  if (history_.size() < 2) return 0.0;
+  const Sample& last = history_.back();
+  size_t i = history_.size() - 1;
+  while (i > 0 && history_[i - 1].stamp_s >= last.stamp_s - window_s) --i;
+  const Sample& first = history_[i];
+  const double dt = last.stamp_s - first.stamp_s;
+  if (dt < 0.1) return 0.0;
+  const double d = side == 0 ? last.left - first.left : last.right - first.right;
+  return std::abs(d) / dt;
+}
+
+double UahRun::rangeSpreadM() const {
+  double n = 0, sum = 0, sum2 = 0;
+  for (const auto& r : ranges_) {
+    if (!std::isfinite(r[1]) || r[1] < options_.detection.min_range_m ||
+        r[1] > options_.detection.max_range_m) {
+      continue;
+    }
+    n += 1, sum += r[1], sum2 += r[1] * r[1];
+  }
+  if (n < 2) return 0.0;
+  return std::sqrt(std::max(0.0, sum2 / n - (sum / n) * (sum / n)));
+}
+
+double UahRun::decorrelationFraction() const {
+  const RoundDetectionOptions det = detectionFor(experiment_);
+  double first = 0;
+  const std::vector<double> x = resampleOnPulses(turnRangeSamples(), det, &first);
+  const int max_lag = static_cast<int>(det.expected_pulses_per_round / 2);
+  const std::vector<double> r = normalizedAutocorrelation(x, max_lag);
+  for (int k = 1; k < static_cast<int>(r.size()); ++k) {
+    if (std::isfinite(r[k]) && r[k] < 0.3) return k / det.expected_pulses_per_round;
+  }
+  return 0.5;
+}
+
+void UahRun::refuseFlatScene() {
+  const double spread = rangeSpreadM();
+  if (spread >= options_.min_range_spread_m) return;
+  fail(std::string(name(experiment_)) + ": the range barely changes as the robot turns (spread " +
+       formatNumber(1000 * spread, 3) + " mm, limit " +
+       formatNumber(1000 * options_.min_range_spread_m, 3) +
+       " mm): the scene around the robot is circular, symmetric or featureless, so no whole round "
+       "can be told apart (paper 002 §3.1); place walls or boxes at different distances");
+}
+
+void UahRun::startTurn(UahExperiment experiment, double now_s) {
+  experiment_ = experiment;
+  motion_ = Motion::kTurn;
+  clock_started_ = false;
+  motion_start_s_ = now_s;
+  history_.clear();
+  history_.push_back({encoder_stamp_s_, left_, right_});
+  start_left_ = left_, start_right_ = right_;
+  ranges_.clear();
+  invalid_ranges_ = 0;
+  online_ppr_ = 0;
+  turn_target_pulses_ = 0;
+  last_detection_error_.clear();
+  next_check_pulses_ = 1.5 * detectionFor(experiment).expected_pulses_per_round;
+  duty_mag_[0] = duty_mag_[1] = options_.start_duty;
+}
+
+void UahRun::startStraight(double now_s) {
+  experiment_ = UahExperiment::kStraight;
+  motion_ = Motion::kDrive;
+  clock_started_ = false;
+  motion_start_s_ = now_s;
+  history_.clear();
+  history_.push_back({encoder_stamp_s_, left_, right_});
+  start_left_ = left_, start_right_ = right_;
+  heading_integral_ = 0;
+  // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
+  // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
+  // the heading transient small).
+  const double start =
+      spin_duty_[0] > 0 ? 0.5 * (spin_duty_[0] + spin_duty_[1]) : options_.start_duty;
+  duty_mag_[0] = duty_mag_[1] = start;
+}
+
+void UahRun::stop(double now_s) {
+  duties_ = {};
+  motion_ = Motion::kSettle;
+  stop_s_ = now_s;
+}
+
+bool UahRun::settled(double now_s) const {
+  if (now_s < stop_s_ + options_.settle_s) return false;
+  if (now_s >= stop_s_ + kMaxSettleS) return true;
+  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+}
+
+int UahRun::round() const {
+  if (!isTurn(experiment_) || online_ppr_ <= 0 || history_.empty()) return 0;
+  return static_cast<int>(std::floor(turnPulses(history_.back()) / online_ppr_)) + 1;
+}
+
+void UahRun::finishTurn() {
+  UahTurn turn;
+  turn.experiment = experiment_;
+  turn.pulses_turned = turnPulses(history_.back());
+  turn.range_readings = static_cast<int>(ranges_.size());
+  turn.invalid_readings = invalid_ranges_;
+  const std::string what = std::string(name(experiment_)) + ": ";
+  if (turn.range_readings == 0) fail(what + "no range readings while turning");
+  const double invalid = static_cast<double>(invalid_ranges_) / turn.range_readings;
+  if (invalid > options_.max_invalid_range_fraction) {
+    fail(what + formatNumber(100 * invalid, 3) +
+         " % of the range readings were dropouts or out of range (limit " +
+         formatNumber(100 * options_.max_invalid_range_fraction, 3) +
+         " %): the walls must be within the sensor's range all around");
+  }
+  try {
+    turn.detection = detectWholeRound(turnRangeSamples(), detectionFor(experiment_));
+  } catch (const CalibrationError& e) {
+    refuseFlatScene();
+    fail(what + e.what());
+  }
+  // A circular or symmetric scene seen from off its centre (a pivot, a spin that drifts) gives one
+  // smooth wave per round: its autocorrelation has a round peak, but so wide that the round is
+  // not told apart from its neighbours. A scene with features decorrelates within a few % of a
+  // round (§2.1: "the obstacles found should not be uniform").
+  turn.decorrelation_fraction = decorrelationFraction();
+  if (turn.decorrelation_fraction > options_.max_decorrelation_fraction) {
+    fail(what + "the range changes only slowly as the robot turns (it takes " +
+         formatNumber(100 * turn.decorrelation_fraction, 3) +
+         " % of a round to decorrelate, limit " +
+         formatNumber(100 * options_.max_decorrelation_fraction, 3) +
+         " %): the scene around the robot is circular, symmetric or featureless, so the round "
+         "cannot be located precisely (paper 002 §3.1); place walls or boxes at different "
+         "distances");
+  }
+  if (turn.detection.rounds_used < std::min(options_.rounds, 2)) {
+    fail(what + "only " + std::to_string(turn.detection.rounds_used) +
+         " round peaks agreed in the autocorrelation (the scene changed while turning?)");
+  }
+  turns_.push_back(turn);
+  const double ppr = turn.detection.pulses_per_round;
+  switch (experiment_) {
+    case UahExperiment::kPivotLeftStopped:
+      right_ppr_left_stopped_.push_back(ppr);
+      ++pivot_done_[0];
+      break;
+    case UahExperiment::kPivotRightStopped:
+      left_ppr_right_stopped_.push_back(ppr);
+      ++pivot_done_[1];
+      break;
+    default:
+      spin_ppr_ = ppr;
+      spin_duty_[0] = duty_mag_[0], spin_duty_[1] = duty_mag_[1];
+  }
+}
+
+void UahRun::nextAfterTurns(double now_s) {
+  if (experiment_ == UahExperiment::kSpin) {
+    straight_dir_ = 1;
+    startStraight(now_s);
+    return;
+  }
+  // Alternate the stopped wheel (§2.2): left, right, left, right, ...
+  if (pivot_done_[0] < options_.pivot_experiments && pivot_done_[0] <= pivot_done_[1]) {
+    startTurn(UahExperiment::kPivotLeftStopped, now_s);
+  } else if (pivot_done_[1] < options_.pivot_experiments) {
+    startTurn(UahExperiment::kPivotRightStopped, now_s);
+  } else {
+    // §2.2: Ed = N_L/N_R, needed by the spin's pulse axis and the straight runs' heading.
+    try {
+      Ed_ = estimateEd(right_ppr_left_stopped_, left_ppr_right_stopped_).Ed;
+    } catch (const Error& e) {
+      fail(e.what());
+    }
+    startTurn(UahExperiment::kSpin, now_s);
+  }
+}
+
+void UahRun::onSettled(double now_s) {
+  if (isTurn(experiment_)) {
+    finishTurn();
+    nextAfterTurns(now_s);
+    return;
+  }
+  // A straight run: its pulses and heading are final; the caller measures the length.
+  // The heading from whole ticks jumps by a pulse's worth (0.9 deg on a Duckiebot) as either
+  // encoder steps: a centred mean over 5 readings (~0.17 s at 30 Hz) keeps the heading and
+  // removes most of that quantisation before §2.3's threshold is applied.
+  std::vector<std::pair<double, double>> cumulative;
+  const int n = static_cast<int>(history_.size()), half = 2;
+  for (int i = 0; i < n; ++i) {
+    const int lo = std::max(0, i - half), hi = std::min(n - 1, i + half);
+    double l = 0, r = 0;
+    for (int j = lo; j <= hi; ++j) l += history_[j].left, r += history_[j].right;
+    cumulative.push_back({l / (hi - lo + 1) - start_left_, r / (hi - lo + 1) - start_right_});
+  }
+  run_right_pulses_ = std::abs(history_.back().right - start_right_);
+  run_max_dev_rad_ = maxHeadingDeviationRad(cumulative, headingParams());
+  motion_ = Motion::kNone;
+  awaiting_length_ = true;
+  awaiting_since_s_ = now_s;
+}
+
+void UahRun::setStraightLength(double length_m) {
+  if (!awaiting_length_) throw InputError("no straight run is waiting for its length");
+  if (!std::isfinite(length_m) || length_m <= 0) {
+    throw InputError("a straight run's length must be a positive number [m], got " +
+                     formatNumber(length_m));
+  }
+  awaiting_length_ = false;
+  const double odometry_m = run_right_pulses_ * options_.nominal.right_m_per_pulse;
+  if (std::abs(length_m / odometry_m - 1) > options_.max_length_mismatch) {
+    fail("straight run " + std::to_string(attempts_ + 1) + ": the given length " +
+         formatNumber(length_m, 4) + " m is far from the " + formatNumber(odometry_m, 4) +
+         " m the nominal right wheel counted (a run cut short, a slipping wheel or a wrong "
+         "measurement)");
+  }
+  straight_runs_.push_back({length_m, run_right_pulses_, run_max_dev_rad_});
+  ++attempts_;
+  if (run_max_dev_rad_ <= options_.straight.max_heading_deviation_rad) ++accepted_;
+  if (accepted_ >= options_.straight_runs) {
+    finish();
+    return;
+  }
+  const int bound = options_.straight_runs + options_.max_straight_retries;
+  if (attempts_ >= bound) {
+    fail("only " + std::to_string(accepted_) + " of " + std::to_string(options_.straight_runs) +
+         " straight runs kept the heading within " +
+         deg(options_.straight.max_heading_deviation_rad) + " in " + std::to_string(attempts_) +
+         " runs (last deviated " + deg(run_max_dev_rad_) + ")");
+  }
+  // The next run goes back along the same line (a rejected one is repeated that way too).
+  straight_dir_ = -straight_dir_;
+  startStraight(last_now_s_);
+}
+
+void UahRun::finish() {
+  try {
+    result_ = computeUah(options_.nominal, right_ppr_left_stopped_, left_ppr_right_stopped_,
+                         straight_runs_, spin_ppr_, options_.straight);
+    checkOdometryCalibration(result_.toOdometryCalibration(""));
+  } catch (const Error& e) {
+    fail(e.what());
+  }
+  experiment_ = UahExperiment::kDone;
+  motion_ = Motion::kNone;
+  duties_ = {};
+}
+
+WheelDuties UahRun::update(double now_s) {
+  if (done() || failed()) return {};
+  if (!started_) {
+    started_ = true;
+    start_s_ = last_update_s_ = now_s;
+  }
+  const double dt = std::clamp(now_s - last_update_s_, 0.0, 0.2);
+  last_update_s_ = last_now_s_ = now_s;
+  if (options_.max_duration_s > 0 && now_s - start_s_ > options_.max_duration_s) {
+    fail("the UAH run took longer than max_duration_s (" +
+         formatNumber(options_.max_duration_s, 4) + " s) in " + name(experiment_));
+  }
+  if (!have_encoders_) {
+    if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
+    return {};
+  }
+  if (motion_ != Motion::kNone && now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
+    fail("the encoders went silent for " + formatNumber(now_s - encoder_stamp_s_, 3) + " s");
+  }
+  if (experiment_ == UahExperiment::kWait) startTurn(UahExperiment::kPivotLeftStopped, now_s);
+  if (awaiting_length_) {
+    if (options_.length_timeout_s > 0 && now_s - awaiting_since_s_ > options_.length_timeout_s) {
+      fail("no length given for straight run " + std::to_string(attempts_ + 1) + " in " +
+           formatNumber(options_.length_timeout_s, 3) + " s");
+    }
+    return {};
+  }
+  if (motion_ == Motion::kSettle) {
+    if (settled(now_s)) onSettled(now_s);
+    if (motion_ == Motion::kSettle || motion_ == Motion::kNone) return duties_ = {};
+  }
+  if (motion_ == Motion::kNone) return {};
+  if (!clock_started_) {
+    clock_started_ = true;
+    motion_start_s_ = now_s;
+  }
+  const double moving_s = now_s - motion_start_s_;
+
+  // Each driven wheel's duty follows its pulse-rate error (integral control): the robot's
+  // deadbands and motor gains are unknown here.
+  auto follow = [&](int side, double target) {
+    const double error = 1.0 - wheelRate(side, kRateWindowS) / target;
+    duty_mag_[side] =
+        std::clamp(duty_mag_[side] + options_.rate_gain_per_s * dt * error, 0.0, options_.max_duty);
+  };
+  auto checkStall = [&](int side) {
+    const double last =
+        std::max(side == 0 ? last_change_left_s_ : last_change_right_s_, motion_start_s_);
+    if (now_s - last > options_.stall_s) {
+      fail(std::string(name(experiment_)) + ": the " + (side == 0 ? "left" : "right") +
+           " wheel has not moved for " + formatNumber(now_s - last, 3) + " s at duty " +
+           formatNumber(duty_mag_[side], 3) + " (the robot stalled: blocked, or a motor fault)");
+    }
+  };
+
+  if (motion_ == Motion::kTurn) {
+    if (moving_s > options_.range_timeout_s &&
+        now_s - std::max(last_range_arrival_s_, motion_start_s_) > options_.range_timeout_s) {
+      fail(std::string(name(experiment_)) + ": the range sensor went silent");
+    }
+    const RoundDetectionOptions det = detectionFor(experiment_);
+    const double nt = det.expected_pulses_per_round;
+    const double p = turnPulses(history_.back());
+    // §2.1: whole rounds come from the autocorrelation of what has been turned so far, checked
+    // every tenth of a round; the turn ends after rounds + 1 detected rounds.
+    if (p >= next_check_pulses_) {
+      next_check_pulses_ = p + nt / 10;
+      try {
+        online_ppr_ = detectWholeRound(turnRangeSamples(), det).pulses_per_round;
+        turn_target_pulses_ = (options_.rounds + 1) * online_ppr_;
+      } catch (const CalibrationError& e) {
+        last_detection_error_ = e.what();
+        // Two expected rounds without a round: refuse a flat scene now rather than turn on.
+        if (p >= 2 * nt * (1 + det.window_fraction)) refuseFlatScene();
+      }
+    }
+    const double rate = experiment_ == UahExperiment::kSpin ? options_.spin_rate_pulses_per_s
+                                                            : options_.pivot_rate_pulses_per_s;
+    // Stop a little early: the wheel coasts for about its lag (~0.05 s) after the stop.
+    if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - 0.05 * rate) {
+      stop(now_s);
+      return duties_;
+    }
+    const double bound = (options_.rounds + 1.5) * nt * (1 + det.window_fraction);
+    if (p > bound) {
+      refuseFlatScene();
+      fail(std::string(name(experiment_)) + ": no whole round found in " + formatNumber(p / nt, 3) +
+           " expected rounds: " +
+           (last_detection_error_.empty() ? "no detection yet" : last_detection_error_));
+    }
+    switch (experiment_) {
+      case UahExperiment::kPivotLeftStopped:
+        follow(1, rate);
+        checkStall(1);
+        duties_ = {0.0, duty_mag_[1]};
+        break;
+      case UahExperiment::kPivotRightStopped:
+        follow(0, rate);
+        checkStall(0);
+        duties_ = {duty_mag_[0], 0.0};
+        break;
+      default:  // spin counter-clockwise
+        follow(0, rate);
+        follow(1, rate);
+        checkStall(0);
+        checkStall(1);
+        duties_ = {-duty_mag_[0], duty_mag_[1]};
+    }
+    return duties_;
+  }
+
+  // A straight run (§2.3): the right wheel at its rate; the left wheel at the rate that keeps
+  // N_L·c_L = N_R·c_R (N_L = Ed·N_R), and a PI on the heading error N_R − N_L/Ed [pulses].
+  const double dl = straight_dir_ * (left_ - start_left_);
+  const double dr = straight_dir_ * (right_ - start_right_);
+  const double target_pulses = options_.straight_length_m / options_.nominal.right_m_per_pulse;
+  if (dr >= target_pulses) {
+    stop(now_s);
+    return duties_;
+  }
+  const double ramp = std::clamp(moving_s / options_.straight_ramp_s, 0.0, 1.0);
+  follow(1, options_.spin_rate_pulses_per_s +
+                ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s));
+  checkStall(0);
+  checkStall(1);
+  // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
+  // the wheels' differences (deadbands, motor gains, Ed).
+  const double error = dr - dl / Ed_;
+  heading_integral_ += error * dt;
+  const double left = std::clamp(duty_mag_[1] + options_.heading_gain_duty_per_pulse * error +
+                                     options_.heading_integral_duty_per_pulse_s * heading_integral_,
+                                 0.0, options_.max_duty);
+  duties_ = {straight_dir_ * left, straight_dir_ * duty_mag_[1]};
+  return duties_;
+}
+
+double UahRun::progress() const {
+  const double turns = 2.0 * options_.pivot_experiments + 1;
+  const double straights = options_.straight_runs;
+  double done_units = static_cast<double>(turns_.size()) + accepted_;
+  if (done()) return 1.0;
+  if (isTurn(experiment_) && turn_target_pulses_ > 0 && !history_.empty()) {
+    done_units += std::min(1.0, turnPulses(history_.back()) / turn_target_pulses_);
+  }
+  return std::min(1.0, done_units / (turns + straights));
+}
+
+std::string UahRun::describe() const {
+  std::string s = name(experiment_);
+  if (isTurn(experiment_)) {
+    s += " round " + std::to_string(std::min(round(), options_.rounds + 1)) + "/" +
+         std::to_string(options_.rounds + 1);
+    if (online_ppr_ > 0) s += ", " + formatNumber(online_ppr_, 5) + " pulses/round";
+  } else if (experiment_ == UahExperiment::kStraight) {
+    s += " run " + std::to_string(attempts_ + 1) + " (" + std::to_string(accepted_) + "/" +
+         std::to_string(options_.straight_runs) + " accepted)";
+    if (awaiting_length_) s += ", waiting for its length";
+  }
+  if (Ed_ != 1.0) s += ", Ed " + formatNumber(Ed_, 6);
+  if (spin_ppr_ > 0) s += ", spin " + formatNumber(spin_ppr_, 6) + " pulses/round";
+  if (failed()) s += ": " + failure_;
+  return s;
+}
+
+}  // namespace odometry
+}  // namespace autocal

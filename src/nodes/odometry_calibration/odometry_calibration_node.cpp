@@ -1,0 +1,227 @@
+#include "odometry_calibration_node.h"
+
+#include <std_msgs/Float64.h>
+
+#include <cmath>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal/odometry/calibration_file.h"
+#include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/params.h"
+
+namespace autocal {
+namespace odometry {
+
+void OdometryCalibrationNodeOptions::validate() const {
+  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+                        "must be a non-empty name without '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkParam(std::isfinite(wheel_radius_m) && wheel_radius_m > 0, "wheel_radius_m",
+                        "must be > 0 [m]");
+  ros_layer::checkParam(std::isfinite(wheelbase_m) && wheelbase_m > 0, "wheelbase_m",
+                        "must be > 0 [m]");
+  ros_layer::checkParam(ticks_per_revolution >= 0, "ticks_per_revolution",
+                        "must be >= 0 (0: from the encoder messages)");
+  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",
+                        "must be >= 20 Hz");
+  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
+                        "must be >= 0");
+  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
+                        "must be > 0");
+  UahRunOptions r = run;
+  r.nominal = DiffDriveParams::fromWheel(2 * wheel_radius_m, 100, wheelbase_m);  // set later
+  try {
+    r.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string("~") + e.what());
+  }
+}
+
+namespace {
+
+OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
+  const ros_layer::ParamReader p(pnh, "odometry_calibration_node");
+  OdometryCalibrationNodeOptions o;
+  o.veh = ros_layer::defaultVeh(nh);
+  p.get("veh", o.veh);
+  p.get("calibration_root", o.calibration_root);
+  p.get("wheel_radius_m", o.wheel_radius_m);
+  p.get("wheelbase_m", o.wheelbase_m);
+  p.get("ticks_per_revolution", o.ticks_per_revolution);
+  p.get("control_rate_hz", o.control_rate_hz);
+  p.get("connect_wait_s", o.connect_wait_s);
+  p.get("status_rate_hz", o.status_rate_hz);
+  UahRunOptions& r = o.run;
+  p.get("rounds", r.rounds);
+  p.get("pivot_experiments", r.pivot_experiments);
+  p.get("pivot_rate_pulses_per_s", r.pivot_rate_pulses_per_s);
+  p.get("spin_rate_pulses_per_s", r.spin_rate_pulses_per_s);
+  p.get("straight_rate_pulses_per_s", r.straight_rate_pulses_per_s);
+  p.get("start_duty", r.start_duty);
+  p.get("max_duty", r.max_duty);
+  p.get("straight_length_m", r.straight_length_m);
+  p.get("straight_runs", r.straight_runs);
+  p.get("max_straight_retries", r.max_straight_retries);
+  p.get("max_heading_deviation_rad", r.straight.max_heading_deviation_rad);
+  p.get("min_clearance_m", r.min_clearance_m);
+  p.get("window_fraction", r.detection.window_fraction);
+  p.get("min_peak_correlation", r.detection.min_peak_correlation);
+  p.get("max_secondary_ratio", r.detection.max_secondary_ratio);
+  p.get("min_range_spread_m", r.min_range_spread_m);
+  p.get("max_invalid_range_fraction", r.max_invalid_range_fraction);
+  p.get("stall_s", r.stall_s);
+  p.get("encoder_timeout_s", r.encoder_timeout_s);
+  p.get("range_timeout_s", r.range_timeout_s);
+  p.get("length_timeout_s", r.length_timeout_s);
+  p.get("max_duration_s", r.max_duration_s);
+  o.validate();
+  return o;
+}
+
+}  // namespace
+
+OdometryCalibrationNode::OdometryCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+  status_.running("odometry/wait", 0, "waiting for the encoders and the range sensor");
+}
+
+void OdometryCalibrationNode::start(int ticks_per_revolution) {
+  UahRunOptions r = options_.run;
+  const int resolution =
+      options_.ticks_per_revolution > 0 ? options_.ticks_per_revolution : ticks_per_revolution;
+  r.nominal =
+      DiffDriveParams::fromWheel(2 * options_.wheel_radius_m, resolution, options_.wheelbase_m);
+  ROS_INFO(
+      "odometry_calibration_node: nominal radius %.4f m, wheelbase %.4f m, %d ticks/rev; %d rounds "
+      "x %d pivot experiments per wheel, spin, %d straight runs of %.2f m (heading within %.2f "
+      "deg, up to %d retries); calibration root %s",
+      options_.wheel_radius_m, options_.wheelbase_m, resolution, r.rounds, r.pivot_experiments,
+      r.straight_runs, r.straight_length_m, r.straight.max_heading_deviation_rad * 180 / M_PI,
+      r.max_straight_retries, options_.calibration_root.c_str());
+  run_ = std::make_unique<UahRun>(r);
+}
+
+void OdometryCalibrationNode::publishStatus(bool force) {
+  const std::string phase = std::string("odometry/") + name(run_->experiment());
+  const std::string key = phase + "/" + std::to_string(run_->round()) + "/" +
+                          std::to_string(run_->straightRun()) + "/" +
+                          std::to_string(run_->needsStraightLength());
+  const ros::Time now = ros::Time::now();
+  // Every change of experiment, round, straight run or waiting is published at once (a helper
+  // or a person acts on it); the rest at status_rate_hz.
+  if (!force && key == last_key_ && (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
+    return;
+  if (key != last_key_) ROS_INFO("odometry_calibration_node: %s", run_->describe().c_str());
+  last_key_ = key;
+  last_status_ = now;
+  status_.running(phase, run_->progress(), run_->describe(),
+                  {{"round", static_cast<double>(run_->round())},
+                   {"pulses_per_round", run_->pulsesPerRound()},
+                   {"straight_run", static_cast<double>(run_->straightRun())},
+                   {"awaiting_length", run_->needsStraightLength() ? 1.0 : 0.0},
+                   {"run_start_s", run_->straightRunStartS()},
+                   {"elapsed_s", run_->elapsedS()}});
+}
+
+void OdometryCalibrationNode::run() {
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int resolution) {
+        if (!run_) start(resolution);
+        run_->addEncoders(stamp.toSec(), left, right);
+      },
+      &error_);
+  range_sub_ = nh_.subscribe<sensor_msgs::Range>(
+      "front_center_tof_driver_node/range", 20, [this](const sensor_msgs::Range::ConstPtr& msg) {
+        if (!run_) return;
+        const RangeReading r = ros_layer::fromRangeMsg(*msg);
+        run_->addRange(r.stamp_s, r.range_m);
+      });
+  length_sub_ = pnh_.subscribe<std_msgs::Float64>(
+      "straight_length", 5, [this](const std_msgs::Float64::ConstPtr& msg) {
+        if (!run_ || !run_->needsStraightLength()) {
+          ROS_WARN(
+              "odometry_calibration_node: a straight length (%.4f m) arrived while no run "
+              "waits for one: ignored",
+              msg->data);
+          return;
+        }
+        const int run = run_->straightRun();
+        try {
+          run_->setStraightLength(msg->data);
+        } catch (...) {
+          error_ = std::current_exception();
+          return;
+        }
+        const StraightRun& last = run_->straightRuns().back();
+        ROS_INFO(
+            "odometry_calibration_node: straight run %d: %.4f m given, %.0f right pulses, "
+            "heading deviated %.2f deg (%s)",
+            run, last.length_m, last.right_pulses, last.max_heading_deviation_rad * 180 / M_PI,
+            last.max_heading_deviation_rad <= options_.run.straight.max_heading_deviation_rad
+                ? "accepted"
+                : "rejected");
+      });
+  // Inputs first, the wheels last (a simulator started with wait_for_controller holds its clock
+  // until a wheels_cmd publisher appears). Wall time: a held clock does not move.
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
+  while (ros_layer::ok() && ros::WallTime::now() < end &&
+         (!encoders_->connected() || range_sub_.getNumPublishers() == 0)) {
+    ros::WallDuration(0.01).sleep();
+  }
+  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+  ros::Rate rate(options_.control_rate_hz);
+  const ros::WallTime wait_start = ros::WallTime::now();
+  while (ros_layer::ok() && !(run_ && run_->done())) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    if (!run_) {
+      if ((ros::WallTime::now() - wait_start).toSec() >
+          options_.run.encoder_timeout_s + options_.connect_wait_s) {
+        throw InputError("no encoder readings on left/right_wheel_encoder_node/tick");
+      }
+      wheels_.command(0, 0);
+      rate.sleep();
+      continue;
+    }
+    const WheelDuties duties = run_->update(ros::Time::now().toSec());
+    wheels_.command(duties.left, duties.right);
+    publishStatus(false);
+    rate.sleep();
+  }
+  if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
+  wheels_.stop();
+  finish();
+}
+
+void OdometryCalibrationNode::finish() {
+  const UahResult& r = run_->result();
+  const OdometryCalibration calibration = r.toOdometryCalibration(options_.veh);
+  const std::string path = odometryCalibrationPath(options_.calibration_root, options_.veh);
+  status_.running("odometry/write", 0.99, run_->describe());
+  writeOdometryCalibration(path, calibration);  // the quality gate first; throws on failure
+  ROS_INFO(
+      "odometry_calibration_node: wrote %s: Ed %.5f, wheelbase %.5f m (Eb %.4f), c_L %.5f mm, "
+      "c_R %.5f mm per pulse, %.1f s",
+      path.c_str(), calibration.Ed, calibration.wheelbase_m, calibration.Eb,
+      1000 * calibration.left_m_per_pulse, 1000 * calibration.right_m_per_pulse, run_->elapsedS());
+  double spin_ppr = 0;
+  for (const auto& t : run_->turns())
+    if (t.experiment == UahExperiment::kSpin) spin_ppr = t.detection.pulses_per_round;
+  status_.done("odometry/write", "wrote " + path,
+               {{"Ed", calibration.Ed},
+                {"Eb", calibration.Eb},
+                {"wheelbase_m", calibration.wheelbase_m},
+                {"left_m_per_pulse", calibration.left_m_per_pulse},
+                {"right_m_per_pulse", calibration.right_m_per_pulse},
+                {"right_pulses_per_round_left_stopped", r.ed.right_pulses_per_round},
+                {"left_pulses_per_round_right_stopped", r.ed.left_pulses_per_round},
+                {"spin_pulses_per_round", spin_ppr},
+                {"straight_runs_accepted", static_cast<double>(r.straight.accepted_runs.size())},
+                {"elapsed_s", run_->elapsedS()}});
+}
+
+}  // namespace odometry
+}  // namespace autocal

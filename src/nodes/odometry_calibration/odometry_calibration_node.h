@@ -1,0 +1,74 @@
+// odometry_calibration_node — the robot drives paper 002's UAH experiments by itself (§2): it
+// pivots on its stopped left wheel, then on its stopped right wheel (whole rounds from the range
+// autocorrelation, §2.1), spins in place, and drives straight runs on a free line, then writes
+// odometry/<veh>.yaml (odometry::UahRun does the work; this class only wires ROS to it). README
+// "Odometry calibration node" lists the parameters.
+//
+// The one measured input: each straight run's true start-to-end length, received on
+// ~straight_length (std_msgs/Float64, metres) while the status says the run waits for it — typed
+// by a person on a robot (`rostopic pub`), or in the simulator by straight_length_helper, which
+// reads it from sim/ground_truth (a validation tool, not part of the calibration).
+//
+// Subscribes (relative to the robot's namespace): left_wheel_encoder_node/tick,
+// right_wheel_encoder_node/tick, front_center_tof_driver_node/range, ~straight_length.
+// Publishes wheels_driver_node/wheels_cmd and calibration/status (phase odometry/<experiment>,
+// figures round, pulses_per_round, Ed, straight_run, awaiting_length, run_start_s). On success
+// writes the file and publishes DONE whose text is "wrote <path>"; every failure is an exception
+// for runNode's failure path (wheels stopped, FAILED, nothing written).
+#pragma once
+
+#include <ros/ros.h>
+
+#include <exception>
+#include <memory>
+#include <string>
+
+#include "autocal/odometry/uah_run.h"
+#include "autocal_ros/node_runtime.h"
+#include "autocal_ros/sensor_inputs.h"
+
+namespace autocal {
+namespace odometry {
+
+struct OdometryCalibrationNodeOptions {
+  std::string veh;  ///< default: the last component of the node's namespace
+  std::string calibration_root = "/data/config/calibrations";
+  /// The nominal robot: wheel radius [m] (both wheels) and wheelbase [m]; the encoder resolution
+  /// comes from the encoder messages unless ticks_per_revolution > 0.
+  double wheel_radius_m = 0.0318;
+  double wheelbase_m = 0.1;
+  int ticks_per_revolution = 0;
+  double control_rate_hz = 50;
+  double connect_wait_s = 5.0;
+  double status_rate_hz = 2.0;
+  UahRunOptions run;
+  /// Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+class OdometryCalibrationNode {
+ public:
+  OdometryCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  /// Runs the experiments to their end; returns after DONE, throws on failure.
+  void run();
+
+ private:
+  void start(int ticks_per_revolution);
+  void publishStatus(bool force);
+  void finish();
+
+  ros::NodeHandle nh_, pnh_;
+  OdometryCalibrationNodeOptions options_;
+  std::unique_ptr<UahRun> run_;
+  ros_layer::StatusPublisher status_;
+  ros_layer::WheelsCommander wheels_;
+  std::unique_ptr<ros_layer::EncoderInput> encoders_;
+  ros::Subscriber range_sub_, length_sub_;
+  std::exception_ptr error_;
+  bool range_limits_set_ = false;
+  ros::Time last_status_;
+  std::string last_key_;
+};
+
+}  // namespace odometry
+}  // namespace autocal

@@ -36,11 +36,7 @@ void CameraCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
                         "must be > 0");
   ros_layer::checkParam(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
-  try {
-    run.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string("~") + e.what());
-  }
+  ros_layer::validateParams(run);
 }
 
 namespace {

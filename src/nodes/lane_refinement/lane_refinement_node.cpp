@@ -9,6 +9,7 @@
 #include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
+#include "autocal_ros/tag_params.h"
 
 namespace autocal {
 namespace wheels {
@@ -30,11 +31,7 @@ void LaneRefinementNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(std::isfinite(max_duration_s) && max_duration_s >= 0, "max_duration_s",
                         "must be >= 0");
-  try {
-    refiner.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string("~") + e.what());
-  }
+  ros_layer::validateParams(refiner);
 }
 
 namespace {
@@ -56,17 +53,7 @@ LaneRefinementNodeOptions readOptions(const ros::NodeHandle& nh, const ros::Node
   p.get("max_duration_s", o.max_duration_s);
 
   LaneRefinerOptions& r = o.refiner;
-  p.get("tag_size_m", r.detector.tag_size_m);
-  p.get("tag_decimate", r.detector.decimate);
-  p.get("tag_threads", r.detector.threads);
-  p.get("tag_refine_edges", r.detector.refine_edges);
-  p.get("max_tag_distance_m", r.heading.max_distance_m);
-  p.get("prefer_tag_distance_m", r.heading.prefer_distance_m);
-  p.get("tag_outlier_rad", r.heading.outlier_rad);
-  p.get("camera_height_m", r.mount.height_m);
-  p.get("camera_pitch_rad", r.mount.pitch_rad);
-  p.get("camera_x_m", r.mount.x_m);
-  p.get("camera_y_m", r.mount.y_m);
+  ros_layer::readTagParams(p, r.detector, r.heading, r.mount);
   p.get("first_tag_id", r.first_tag_id);
   p.get("num_tags", r.num_tags);
   p.get("start_max_distance_m", r.start_max_distance_m);

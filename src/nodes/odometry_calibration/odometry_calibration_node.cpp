@@ -31,11 +31,7 @@ void OdometryCalibrationNodeOptions::validate() const {
                         "must be > 0");
   UahRunOptions r = run;
   r.nominal = DiffDriveParams::fromWheel(2 * wheel_radius_m, 100, wheelbase_m);  // set later
-  try {
-    r.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string("~") + e.what());
-  }
+  ros_layer::validateParams(r);
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
+#include "autocal_ros/tag_params.h"
 
 namespace autocal {
 namespace wheels {
@@ -29,11 +30,7 @@ void WheelCalibrationNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
                         "must be < 0.9 (negative: automatic)");
-  try {
-    run.validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string("~") + e.what());
-  }
+  ros_layer::validateParams(run);
 }
 
 namespace {
@@ -54,20 +51,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("deadband_guess", o.deadband_guess);
 
   WheelRunOptions& r = o.run;
-  p.get("tag_size_m", r.detector.tag_size_m);
-  p.get("tag_decimate", r.detector.decimate);
-  p.get("tag_threads", r.detector.threads);
-  p.get("tag_refine_edges", r.detector.refine_edges);
-  p.get("tag_max_hamming", r.detector.max_hamming);
-  p.get("tag_min_decision_margin", r.detector.min_decision_margin);
-  p.get("max_tag_tilt_rad", r.heading.max_tilt_rad);
-  p.get("tag_outlier_rad", r.heading.outlier_rad);
-  p.get("max_tag_distance_m", r.heading.max_distance_m);
-  p.get("prefer_tag_distance_m", r.heading.prefer_distance_m);
-  p.get("camera_height_m", r.mount.height_m);
-  p.get("camera_pitch_rad", r.mount.pitch_rad);
-  p.get("camera_x_m", r.mount.x_m);
-  p.get("camera_y_m", r.mount.y_m);
+  ros_layer::readTagParams(p, r.detector, r.heading, r.mount);
   p.get("min_update", r.trim.min_update);
   p.get("ignored_to_converge", r.trim.ignored_to_converge);
   p.get("damping", r.trim.damping);

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "autocal/errors.h"
+
 namespace autocal {
 namespace ros_layer {
 
@@ -17,6 +19,17 @@ std::string defaultVeh(const ros::NodeHandle& nh);
 
 /// Throws ConfigError "~<key>: <what>" unless `ok`: a node's options name the private parameter.
 void checkParam(bool ok, const std::string& key, const std::string& what);
+
+/// Runs a core options struct's validate() for a node: its ConfigError "key: what" becomes
+/// "~key: what", the private parameter's name.
+template <class Options>
+void validateParams(const Options& options) {
+  try {
+    options.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(std::string("~") + e.what());
+  }
+}
 
 class ParamReader {
  public:

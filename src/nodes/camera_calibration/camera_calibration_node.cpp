@@ -137,7 +137,7 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
-        encoders_seen_ = true;
+        arrivals_.encoders = true;
         if (run_)
           run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
       },
@@ -177,7 +177,7 @@ void CameraCalibrationNode::onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr
 
 bool CameraCalibrationNode::frameWanted(const ros::Time& stamp) {
   if (!run_) return false;
-  frames_seen_ = true;
+  arrivals_.frames = true;
   run_->noteFrameArrived(ros::Time::now().toSec());
   // Decode only the frame the stage wants (one per step): the others cost nothing.
   return run_->wantsFrame(stamp.toSec());
@@ -250,23 +250,10 @@ void CameraCalibrationNode::publishStatus(bool force) {
 void CameraCalibrationNode::run() {
   connect();
   waitForCameraInfo();
-  ros::Rate rate(options_.control_rate_hz);
-  while (ros_layer::ok() && !run_->swept()) {
-    frames_seen_ = encoders_seen_ = false;
-    ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
-    // What arrived in this batch arrived now: processing a frame in it may have taken a while of
-    // sim time (at real_time_factor 0 the simulator runs on meanwhile).
-    const double now = ros::Time::now().toSec();
-    if (frames_seen_) run_->noteFrameArrived(now);
-    if (encoders_seen_) run_->noteEncodersArrived(now);
-    const WheelDuties duties = run_->update(now);
-    wheels_.command(duties.left, duties.right);
-    publishStatus(false);
-    rate.sleep();
-  }
-  if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
-  wheels_.stop();
+  if (!ros_layer::runStageLoop(
+          *run_, [this] { return run_->swept(); }, options_.control_rate_hz, error_, arrivals_,
+          wheels_, [this] { publishStatus(false); }))
+    return;  // interrupted: runNode stops the wheels
   finish();
 }
 

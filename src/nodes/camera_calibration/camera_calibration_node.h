@@ -85,7 +85,7 @@ class CameraCalibrationNode {
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   bool have_info_ = false;
   sensor_msgs::CameraInfo info_;
-  bool frames_seen_ = false, encoders_seen_ = false;  ///< in the current batch of callbacks
+  ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
   std::exception_ptr error_;
   ros::Time last_status_;
   std::string last_phase_;

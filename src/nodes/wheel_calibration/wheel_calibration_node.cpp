@@ -209,7 +209,7 @@ void WheelCalibrationNode::run() {
   frames_ = std::make_unique<ros_layer::FrameInput>(
       nh_, options_.image_transport, "wheel_calibration_node",
       [this](const ros::Time& stamp) {
-        frames_seen_ = true;
+        arrivals_.frames = true;
         run_->noteFrameArrived(ros::Time::now().toSec());
         return run_->wantsFrame(stamp.toSec());
       },
@@ -222,26 +222,15 @@ void WheelCalibrationNode::run() {
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
-        encoders_seen_ = true;
+        arrivals_.encoders = true;
         run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
       },
       &error_);
   connect();
-  ros::Rate rate(options_.control_rate_hz);
-  while (ros_layer::ok() && !run_->done()) {
-    frames_seen_ = encoders_seen_ = false;
-    ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
-    const double now = ros::Time::now().toSec();
-    if (frames_seen_) run_->noteFrameArrived(now);
-    if (encoders_seen_) run_->noteEncodersArrived(now);
-    const WheelDuties duties = run_->update(now);
-    wheels_.command(duties.left, duties.right);
-    publishStatus(false);
-    rate.sleep();
-  }
-  if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
-  wheels_.stop();
+  if (!ros_layer::runStageLoop(
+          *run_, [this] { return run_->done(); }, options_.control_rate_hz, error_, arrivals_,
+          wheels_, [this] { publishStatus(false); }))
+    return;  // interrupted: runNode stops the wheels
   finish();
 }
 

@@ -76,7 +76,7 @@ class WheelCalibrationNode {
   std::string camera_file_;  ///< from the camera stage's DONE
   double camera_min_duty_left_ = -1, camera_min_duty_right_ = -1;
   std::string camera_failure_;
-  bool frames_seen_ = false, encoders_seen_ = false;
+  ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
   std::exception_ptr error_;
   ros::Time last_status_;
   std::string last_phase_;

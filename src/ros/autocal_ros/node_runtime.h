@@ -6,12 +6,14 @@
 
 #include <ros/ros.h>
 
+#include <exception>
 #include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "autocal/exit_codes.h"
+#include "autocal/sensors.h"
 #include "autocal_ros/msgs.h"
 
 namespace autocal {
@@ -57,6 +59,39 @@ class WheelsCommander {
 
 /// True until ROS shuts down or SIGINT/SIGTERM arrived (runNode installs the handlers).
 bool ok();
+
+/// What a stage node's callbacks saw in one batch (they set these; runStageLoop clears them).
+struct Arrivals {
+  bool frames = false;
+  bool encoders = false;
+};
+
+/// The control loop of a stage node (camera, wheels): at `rate_hz` of the node's clock it handles
+/// the callbacks, rethrows what a callback kept in `error`, tells the stage what arrived in the
+/// batch (it arrived now: processing a frame in it may have taken a while of sim time, and at
+/// real_time_factor 0 the simulator runs on meanwhile), commands the duties stage.update(now)
+/// returns and calls `publish_status`, until `done()`. Returns false when interrupted (runNode
+/// then stops the wheels); true when done, after stopping the wheels.
+template <class Stage, class Done, class Status>
+bool runStageLoop(Stage& stage, Done done, double rate_hz, const std::exception_ptr& error,
+                  Arrivals& arrivals, WheelsCommander& wheels, Status publish_status) {
+  ros::Rate rate(rate_hz);
+  while (ok() && !done()) {
+    arrivals = Arrivals();
+    ros::spinOnce();
+    if (error) std::rethrow_exception(error);
+    const double now = ros::Time::now().toSec();
+    if (arrivals.frames) stage.noteFrameArrived(now);
+    if (arrivals.encoders) stage.noteEncodersArrived(now);
+    const WheelDuties duties = stage.update(now);
+    wheels.command(duties.left, duties.right);
+    publish_status();
+    rate.sleep();
+  }
+  if (!ok()) return false;
+  wheels.stop();
+  return true;
+}
 /// True after SIGINT or SIGTERM.
 bool interrupted();
 

@@ -180,6 +180,7 @@ class WheelRun {
   void startLeave(double now_s);
   KinematicsParams driveParams() const;
   double driveSeconds(double speed_mps) const;
+  double driveDistanceM() const;
 
   WheelRunOptions options_;
   std::unique_ptr<markers::TagDetector> detector_;
@@ -208,7 +209,9 @@ class WheelRun {
   WheelDuties drive_duties_;
   KinematicsParams drive_params_;  // what the last forward drive drove with
   double drive_start_s_ = 0, drive_end_s_ = 0;
-  double forward_s_ = 0;  // its commanded length
+  double forward_s_ = 0;        // its commanded length
+  double drive_forward_m_ = 0;  // its distance by the encoders
+  double creep_m_ = 0;          // where the drives left the robot, along them, by the encoders
   double ratio_error_ = 0;
   int drive_start_left_ = 0, drive_start_right_ = 0;
   std::vector<std::array<double, 3>> drive_samples_;  // stamp, left ticks, right ticks

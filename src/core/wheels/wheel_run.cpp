@@ -16,6 +16,13 @@ namespace {
 /// scheduled for a while is not mistaken for a dead sensor.
 constexpr int kSilentUpdates = 10;
 constexpr double kMaxSettleS = 2.0;
+/// The largest share of a forward drive by which a drive back is lengthened or shortened to make
+/// up for where the earlier cycles left the robot (WheelRun::onMeasured).
+constexpr double kMaxCreepShare = 0.25;
+/// Creep within this distance is left alone [m] (in the simulator's core, without a lag, the
+/// cycles creep by 0.1 m at most, from the first drives' deadband guess): a robot that keeps to its
+/// commands drives its cycles as the paper does.
+constexpr double kCreepDeadzoneM = 0.15;
 std::string deg(double rad) { return formatNumber(rad * 180.0 / M_PI, 3) + " deg"; }
 }  // namespace
 
@@ -231,6 +238,12 @@ void WheelRun::startMotionClock(double length_s) {
   motion_end_s_ = std::numeric_limits<double>::infinity();
 }
 
+double WheelRun::driveDistanceM() const {
+  // Signed distance of the last drive by the encoders (both wheels' mean, nominal radius).
+  const double ticks = 0.5 * ((left_ - drive_start_left_) + (right_ - drive_start_right_));
+  return ticks * 2 * M_PI / ticks_per_rev_ * options_.kinematics.radius;
+}
+
 void WheelRun::stopMotion(double now_s) {
   if (motion_ == Motion::kDrive) drive_end_s_ = now_s;
   duties_ = {};
@@ -423,7 +436,18 @@ void WheelRun::onMeasured(double now_s) {
         drive_start_right_ = right_;
         drive_samples_.clear();
         // As long as the forward drive was commanded, at the speed ratio: the same distance.
-        startMotionClock(forward_s_ * drive_speed_mps_ / back_mps);
+        // Beyond the paper: lengthened or shortened by the share of the forward drive's distance
+        // the earlier cycles left the robot ahead of (or behind) where the iteration started, by
+        // the encoders. A command's lag that differs between start and stop (a node behind the
+        // simulator) otherwise makes the robot creep off the tag field over the cycles.
+        const double creep = creep_m_ - drive_forward_m_;
+        const double excess =
+            std::copysign(std::max(0.0, std::abs(creep) - kCreepDeadzoneM), creep);
+        const double correction =
+            drive_forward_m_ > 0.05
+                ? std::clamp(excess / drive_forward_m_, -kMaxCreepShare, kMaxCreepShare)
+                : 0.0;
+        startMotionClock(forward_s_ * drive_speed_mps_ / back_mps * (1 + correction));
         purpose_ = Purpose::kAfterBack;
       }
       return;
@@ -466,12 +490,15 @@ void WheelRun::onSettled(double now_s) {
       return;
     }
     case Purpose::kAfterForward:
+      drive_forward_m_ = driveDistanceM();
+      creep_m_ += drive_forward_m_;
       drive_left_angle_rad_ = (left_ - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
       forward_s_ = drive_end_s_ - drive_start_s_;
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
       return;
     case Purpose::kAfterBack:
+      creep_m_ += driveDistanceM();  // negative: a drive back
       recordDriveForFit();
       if (estimator_.converged()) {
         startAlign(WheelRunStage::kLeave);

@@ -21,9 +21,11 @@ cal=$out/calibrations
 echo "demo: the camera stage, then the wheel stage, in the simulator (about 2 minutes)"
 roslaunch -p "$port" autocal demo.launch calibration_root:="$cal" "$@" \
   2>&1 | tee "$out/roslaunch.log" | grep --line-buffered -E \
-  "camera_calibration_node: (camera/|wrote|calibration failed)|wheel_calibration_node: (wheels/|wrote|calibration failed)|FATAL" || true
+  "run_report_node: |FATAL" || true
 camera=$cal/camera_intrinsic/$veh.yaml
 kinematics=$cal/kinematics/$veh.yaml
+grep -q '^result: success$' "$cal/report/$veh/summary.yaml" 2>/dev/null ||
+  { echo "demo: FAILED: the run did not succeed (see $cal/report/$veh/summary.yaml and $out/roslaunch.log)" >&2; exit 1; }
 test -s "$camera" || { echo "demo: FAILED: no camera calibration written (see $out/roslaunch.log)" >&2; exit 1; }
 test -s "$kinematics" || { echo "demo: FAILED: no wheel calibration written (see $out/roslaunch.log)" >&2; exit 1; }
 
@@ -59,4 +61,4 @@ paste <(grep -o 'speed_mps: [^,]*, drift_m: [^,]*, [^,]*, reached: [a-z]*' "$out
 echo "(Duckietown accepts 10 cm over 2 m.)"
 echo
 echo "demo: calibrations in $cal (camera_intrinsic/$veh.yaml and its views, kinematics/$veh.yaml),"
-echo "      logs in $out"
+echo "      the run's report in $cal/report/$veh (report.png, summary.yaml), logs in $out"

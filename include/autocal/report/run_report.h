@@ -1,0 +1,163 @@
+// The report of one calibration run (issue 12 "Report"; DESIGN.md "The calibration run"),
+// ROS-free: a RunRecorder is fed what the run published (every stage's status on the one status
+// topic, the encoder readings) and says when the run has ended (every stage DONE, or one FAILED);
+// the report is then a PNG sheet for a person (the views used and their reprojection errors, the
+// image coverage by board corners, the wheel stage's believed path and k per iteration, the
+// odometry figures, pass/fail) and summary.yaml with the figures, written atomically beside the
+// calibration files. It reads only what the calibration nodes publish and write, never a
+// simulator's truth.
+#pragma once
+
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace autocal {
+namespace report {
+
+/// One status message (autocal/CalibrationStatus) as the recorder needs it.
+struct StatusUpdate {
+  double stamp_s = 0;
+  std::string phase;  ///< "<stage>/<step>", e.g. "wheels/iterate"
+  enum class State { kIdle, kRunning, kDone, kFailed } state = State::kRunning;
+  double progress = -1;
+  std::string text, failure_reason;
+  std::vector<std::pair<std::string, double>> figures;
+};
+
+enum class StageState { kPending, kRunning, kDone, kFailed };
+const char* name(StageState state);  ///< "pending", "running", "done", "failed"
+
+struct StageRecord {
+  std::string stage;  ///< "camera", "wheels", "odometry"
+  StageState state = StageState::kPending;
+  std::string phase;  ///< the last phase seen
+  std::string text, failure;
+  double progress = -1;
+  double start_s = -1, end_s = -1;  ///< stamps of its first and last status
+  std::string file;                 ///< what the DONE text names ("wrote <path>")
+  std::vector<std::pair<std::string, double>> figures;  ///< of its last status
+  /// The figure `name`, or NaN.
+  double figure(const std::string& name) const;
+};
+
+/// One wheel-stage update of k (from the status figures "iteration", "k", "trim",
+/// "last_dtheta_rad").
+struct WheelIteration {
+  int iteration = 0;
+  double k = 1, trim = 0, dtheta_rad = 0, stamp_s = 0;
+};
+
+struct EncoderSample {
+  double stamp_s = 0;
+  int left = 0, right = 0;
+};
+
+struct RunRecord {
+  std::string vehicle;
+  std::vector<StageRecord> stages;  ///< in run order
+  std::vector<WheelIteration> wheel_iterations;
+  std::vector<EncoderSample> encoders;
+  int ticks_per_revolution = 0;
+  /// Set by RunRecorder::markStageDead and markInterrupted: why the run ended without its stages'
+  /// DONE or FAILED.
+  std::string run_failure;
+
+  bool succeeded() const;
+  /// The first failure: a stage's reason ("wheels: ...") or run_failure; empty on success.
+  std::string failure() const;
+  const StageRecord* stage(const std::string& name) const;
+};
+
+class RunRecorder {
+ public:
+  /// `stages`: the stages of the run, in order (e.g. {"camera", "wheels"}). Throws ConfigError
+  /// when empty or repeated.
+  RunRecorder(const std::string& vehicle, const std::vector<std::string>& stages);
+
+  /// A status of any stage; statuses of stages not in the run (e.g. "sim") are ignored.
+  void addStatus(const StatusUpdate& status);
+  /// Encoder readings, kept at most every `min_interval_s` for the believed path.
+  void addEncoders(double stamp_s, int left, int right, int ticks_per_revolution,
+                   double min_interval_s = 0.05);
+  /// The node of `stage` went away while the stage was running (no DONE or FAILED): the stage
+  /// fails with `why`.
+  void markStageDead(const std::string& stage, const std::string& why);
+  /// The run was stopped from outside before it ended.
+  void markInterrupted(const std::string& why);
+
+  /// Every stage DONE, or one FAILED, or the run marked interrupted.
+  bool ended() const;
+  /// The stage running now (or the next pending one); empty once ended.
+  std::string currentStage() const;
+  const RunRecord& record() const { return record_; }
+
+ private:
+  StageRecord* find(const std::string& stage);
+  RunRecord record_;
+};
+
+/// The pose the encoders give, integrated with a nominal wheel radius and baseline [m]: what the
+/// robot believes its path was (x forward at the first sample, y left).
+struct PathPoint {
+  double t_s = 0, x_m = 0, y_m = 0, theta_rad = 0;
+};
+std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
+                                    double baseline_m);
+
+/// One view of the camera stage's audit (camera_intrinsic/<veh>_views/views.yaml).
+struct AuditView {
+  std::string image;  ///< path of its PNG
+  double rms_px = 0;
+  std::vector<cv::Point2f> corners;
+};
+struct ViewsAudit {
+  bool loaded = false;
+  cv::Size image_size;
+  double rms_px = 0;
+  std::vector<AuditView> views;
+};
+/// Reads the audit; throws ConfigError (file and line) on a malformed file, IoError when missing.
+ViewsAudit loadViewsAudit(const std::string& views_yaml);
+
+/// Share of the cells of a cols × rows grid over the image that hold a board corner of some view.
+double cornerCoverage(const ViewsAudit& audit, int cols = 8, int rows = 6);
+
+struct ReportOptions {
+  double wheel_radius_m = 0.0318;  ///< for the believed path (the kinematics file's, when written)
+  double baseline_m = 0.1;
+  /// Gates the report adds to the stages' own: the camera's RMS reprojection error and its corner
+  /// coverage of the image.
+  /// (The simulator's default world, boards at one height around the robot, gives about 46 %.)
+  double max_camera_rms_px = 1.0;
+  double min_corner_coverage = 0.4;
+};
+
+struct Gate {
+  std::string name;
+  bool passed = false;
+  std::string detail;
+};
+/// Each stage's DONE, and the report's own gates on the figures.
+std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
+                                const ReportOptions& options);
+
+/// The sheet (BGR, 1600 × 1040).
+cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
+                        const ReportOptions& options, const std::string& time_utc);
+/// summary.yaml's text.
+std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
+                        const ReportOptions& options, const std::string& time_utc);
+
+struct ReportFiles {
+  std::string sheet_png, summary_yaml;
+};
+/// Writes `<dir>/report.png` and `<dir>/summary.yaml`, each atomically (the audit is read from
+/// `views_yaml` when it exists). Throws IoError when a file cannot be written.
+ReportFiles writeReport(const std::string& dir, const RunRecord& record,
+                        const std::string& views_yaml, const ReportOptions& options);
+
+}  // namespace report
+}  // namespace autocal

@@ -1,0 +1,222 @@
+#include "run_report_node.h"
+
+#include <ros/master.h>
+#include <ros/network.h>
+#include <xmlrpcpp/XmlRpcClient.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal/wheels/kinematics.h"
+#include "autocal_ros/params.h"
+
+namespace autocal {
+namespace report {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<std::string> splitList(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    item.erase(0, item.find_first_not_of(" \t"));
+    item.erase(item.find_last_not_of(" \t") + 1);
+    if (!item.empty()) out.push_back(item);
+  }
+  return out;
+}
+
+// Whether a node answers getPid at the URI the master has for it (what `rosnode ping` does): a
+// killed process keeps its registration, but its XML-RPC port is closed.
+bool nodeAnswers(const std::string& node) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return false;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return false;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue ping, answer;
+  ping[0] = ros::this_node::getName();
+  const bool ok = client.execute("getPid", ping, answer) && !client.isFault();
+  client.close();
+  return ok;
+}
+
+}  // namespace
+
+void RunReportNodeOptions::validate() const {
+  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+                        "must be a non-empty name without '/'");
+  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  for (const std::string& s : stages)
+    ros_layer::checkParam(s == "camera" || s == "wheels" || s == "odometry", "stages",
+                          "each must be camera, wheels or odometry (got '" + s + "')");
+  ros_layer::checkParam(std::isfinite(report.max_camera_rms_px) && report.max_camera_rms_px > 0,
+                        "max_camera_rms_px", "must be > 0 [px]");
+  ros_layer::checkParam(report.min_corner_coverage >= 0 && report.min_corner_coverage <= 1,
+                        "min_corner_coverage", "must be within [0, 1]");
+  ros_layer::checkParam(std::isfinite(stage_start_timeout_s) && stage_start_timeout_s >= 0,
+                        "stage_start_timeout_s", "must be >= 0 [s]");
+  ros_layer::checkParam(std::isfinite(ping_period_s) && ping_period_s > 0, "ping_period_s",
+                        "must be > 0 [s]");
+}
+
+RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
+  const ros_layer::ParamReader p(pnh_, "run_report_node");
+  options_.veh = ros_layer::defaultVeh(nh_);
+  p.get("veh", options_.veh);
+  p.get("calibration_root", options_.calibration_root);
+  std::string stages = "camera,wheels";
+  p.get("stages", stages);
+  options_.stages = splitList(stages);
+  p.get("report_dir", options_.report_dir);
+  if (options_.report_dir.empty())
+    options_.report_dir = (fs::path(options_.calibration_root) / "report" / options_.veh).string();
+  p.get("max_camera_rms_px", options_.report.max_camera_rms_px);
+  p.get("min_corner_coverage", options_.report.min_corner_coverage);
+  p.get("stage_start_timeout_s", options_.stage_start_timeout_s);
+  p.get("ping_period_s", options_.ping_period_s);
+  options_.validate();
+  recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
+
+  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+  status_sub_ = nh_.subscribe("calibration/status", 50, &RunReportNode::onStatus, this);
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int tpr) {
+        recorder_->addEncoders(stamp.toSec(), left, right, tpr);
+      },
+      &error_);
+}
+
+void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus const>& event) {
+  const autocal::CalibrationStatus& msg = *event.getMessage();
+  const std::string stage = msg.phase.substr(0, msg.phase.find('/'));
+  if (event.getPublisherName() == ros::this_node::getName()) return;  // our own
+  StatusUpdate u;
+  u.stamp_s = msg.header.stamp.toSec();
+  u.phase = msg.phase;
+  u.state = msg.state == autocal::CalibrationStatus::STATE_DONE     ? StatusUpdate::State::kDone
+            : msg.state == autocal::CalibrationStatus::STATE_FAILED ? StatusUpdate::State::kFailed
+            : msg.state == autocal::CalibrationStatus::STATE_IDLE   ? StatusUpdate::State::kIdle
+                                                                    : StatusUpdate::State::kRunning;
+  u.progress = msg.progress;
+  u.text = msg.text;
+  u.failure_reason = msg.failure_reason;
+  for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
+    u.figures.emplace_back(msg.figure_names[i], msg.figure_values[i]);
+  recorder_->addStatus(u);
+  stage_publisher_[stage] = event.getPublisherName();
+}
+
+void RunReportNode::checkStagesAlive() {
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_ping_).toSec() < options_.ping_period_s) return;
+  last_ping_ = now;
+  for (const StageRecord& s : recorder_->record().stages) {
+    if (s.state != StageState::kRunning) continue;
+    const auto it = stage_publisher_.find(s.stage);
+    if (it == stage_publisher_.end() || nodeAnswers(it->second)) continue;
+    const std::string why = it->second + " died while the stage was running (no DONE or FAILED)";
+    recorder_->markStageDead(s.stage, why);
+    // In the stage's name, so that a later stage waiting for its DONE gives up.
+    status_.failed(s.stage + "/died", why);
+    ROS_ERROR("run_report_node: %s: %s", s.stage.c_str(), why.c_str());
+  }
+  // A stage that never starts.
+  const std::string current = recorder_->currentStage();
+  if (current != waiting_for_) {
+    waiting_for_ = current;
+    waiting_since_ = ros::Time::now();
+  }
+  const StageRecord* s = recorder_->record().stage(current);
+  if (s && s->state == StageState::kPending && options_.stage_start_timeout_s > 0 &&
+      (ros::Time::now() - waiting_since_).toSec() > options_.stage_start_timeout_s) {
+    const std::string why = "no status from the " + current + " stage within " +
+                            formatNumber(options_.stage_start_timeout_s, 4) +
+                            " s (~stage_start_timeout_s): is its node running?";
+    recorder_->markStageDead(current, why);
+    status_.failed(current + "/missing", why);
+  }
+}
+
+void RunReportNode::printProgress() {
+  for (const StageRecord& s : recorder_->record().stages) {
+    if (s.state == StageState::kPending) continue;
+    std::string line = s.phase + " " + name(s.state);
+    if (s.progress >= 0 && s.state == StageState::kRunning)
+      line += " " + std::to_string(static_cast<int>(100 * s.progress)) + " %";
+    line += ": " + (s.state == StageState::kFailed ? s.failure : s.text);
+    if (printed_[s.stage] == line) continue;
+    // One line per stage and step: a new line when the step changes, else at most every 5 s.
+    const bool same_step = printed_[s.stage].rfind(s.phase + " ", 0) == 0;
+    if (same_step && s.state == StageState::kRunning) {
+      ROS_INFO_THROTTLE(5.0, "run_report_node: [%s] %s", s.stage.c_str(), line.c_str());
+    } else {
+      ROS_INFO("run_report_node: [%s] %s", s.stage.c_str(), line.c_str());
+    }
+    printed_[s.stage] = line;
+  }
+}
+
+ReportFiles RunReportNode::write() {
+  const RunRecord& record = recorder_->record();
+  ReportOptions o = options_.report;
+  // The believed path with the wheels the run found, when it wrote them.
+  const std::string kin = wheels::kinematicsPath(options_.calibration_root, options_.veh);
+  if (fs::exists(kin)) {
+    try {
+      const wheels::KinematicsParams k = wheels::readKinematicsFile(kin);
+      o.wheel_radius_m = k.radius;
+      o.baseline_m = k.baseline;
+    } catch (const Error& e) {
+      ROS_WARN("run_report_node: %s: %s; the path uses the default wheels", kin.c_str(), e.what());
+    }
+  }
+  const std::string views = (fs::path(options_.calibration_root) / "camera_intrinsic" /
+                             (options_.veh + "_views") / "views.yaml")
+                                .string();
+  const StageRecord* camera = record.stage("camera");
+  const bool camera_done = camera && camera->state == StageState::kDone;
+  return writeReport(options_.report_dir, record, camera_done ? views : "", o);
+}
+
+void RunReportNode::run() {
+  std::string stages;
+  for (const std::string& s : options_.stages) stages += (stages.empty() ? "" : " -> ") + s;
+  ROS_INFO("run_report_node: the run of %s: %s; the report goes to %s", options_.veh.c_str(),
+           stages.c_str(), options_.report_dir.c_str());
+  status_.running("run/watch", 0, "watching the run: " + stages);
+  waiting_since_ = ros::Time::now();
+  waiting_for_ = recorder_->currentStage();
+  ros::WallRate rate(20);
+  while (ros_layer::ok() && !recorder_->ended()) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    checkStagesAlive();
+    printProgress();
+    rate.sleep();
+  }
+  printProgress();
+  if (!recorder_->ended()) recorder_->markInterrupted("interrupted before the run ended");
+  const ReportFiles files = write();
+  const RunRecord& record = recorder_->record();
+  ROS_INFO("run_report_node: wrote %s and %s", files.sheet_png.c_str(), files.summary_yaml.c_str());
+  if (!record.succeeded()) {
+    if (!ros_layer::ok()) return;  // interrupted: runNode reports it
+    throw CalibrationError("the run failed: " + record.failure() + " (report " +
+                           files.summary_yaml + ")");
+  }
+  status_.done("run/report", "wrote " + files.summary_yaml);
+  ROS_INFO("run_report_node: the run succeeded");
+}
+
+}  // namespace report
+}  // namespace autocal

@@ -1,0 +1,170 @@
+// report::RunRecorder and the report files: the recorder follows the status protocol (DESIGN.md
+// "The calibration run"), the believed path integrates the encoders, the files are written and
+// read back.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "autocal/errors.h"
+#include "autocal/io/yaml_reader.h"
+#include "autocal/report/run_report.h"
+
+using namespace autocal;
+using namespace autocal::report;
+namespace fs = std::filesystem;
+
+namespace {
+
+StatusUpdate status(double t, const std::string& phase, StatusUpdate::State state,
+                    const std::string& text,
+                    std::vector<std::pair<std::string, double>> figures = {}) {
+  StatusUpdate u;
+  u.stamp_s = t;
+  u.phase = phase;
+  u.state = state;
+  u.text = text;
+  if (state == StatusUpdate::State::kFailed) u.failure_reason = text;
+  u.figures = std::move(figures);
+  return u;
+}
+
+const auto kRunning = StatusUpdate::State::kRunning;
+const auto kDone = StatusUpdate::State::kDone;
+const auto kFailed = StatusUpdate::State::kFailed;
+
+}  // namespace
+
+TEST(RunRecorder, EndsWhenEveryStageIsDone) {
+  RunRecorder r("autobot", {"camera", "wheels"});
+  EXPECT_EQ(r.currentStage(), "camera");
+  r.addStatus(status(1, "sim", kRunning, "sim"));  // not a stage of the run
+  r.addStatus(status(2, "camera/collect", kRunning, "collecting"));
+  r.addStatus(status(3, "wheels/wait", kRunning, "waiting for the camera stage"));
+  EXPECT_FALSE(r.ended());
+  r.addStatus(status(40, "camera/write", kDone, "wrote /x/camera_intrinsic/autobot.yaml",
+                     {{"rms_px", 0.08}}));
+  EXPECT_EQ(r.currentStage(), "wheels");
+  for (int i = 1; i <= 3; ++i) {
+    r.addStatus(status(50 + i, "wheels/iterate", kRunning, "it",
+                       {{"iteration", i}, {"k", 1.0 + 0.01 * i}, {"trim", 0.005 * i}}));
+    r.addStatus(status(50.5 + i, "wheels/iterate", kRunning, "it",
+                       {{"iteration", i}, {"k", 1.0 + 0.01 * i}, {"trim", 0.005 * i}}));
+  }
+  r.addStatus(status(90, "wheels/write", kDone, "wrote /x/kinematics/autobot.yaml",
+                     {{"drives", 3}, {"k", 1.031}, {"trim", 0.0155}}));
+  ASSERT_TRUE(r.ended());
+  const RunRecord& rec = r.record();
+  EXPECT_TRUE(rec.succeeded());
+  EXPECT_EQ(rec.failure(), "");
+  EXPECT_EQ(rec.stage("camera")->file, "/x/camera_intrinsic/autobot.yaml");
+  EXPECT_DOUBLE_EQ(rec.stage("camera")->start_s, 2);
+  EXPECT_DOUBLE_EQ(rec.stage("wheels")->start_s, 51);  // not its wait for the camera stage
+  EXPECT_DOUBLE_EQ(rec.stage("camera")->end_s, 40);
+  ASSERT_EQ(rec.wheel_iterations.size(), 3u);              // one per drive, not per status
+  EXPECT_DOUBLE_EQ(rec.wheel_iterations.back().k, 1.031);  // the DONE's final k
+  EXPECT_EQ(rec.stage("wheels")->file, "/x/kinematics/autobot.yaml");
+}
+
+TEST(RunRecorder, OneFailedStageEndsTheRunAndLaterStatusesAreIgnored) {
+  RunRecorder r("autobot", {"camera", "wheels", "odometry"});
+  r.addStatus(status(2, "camera/collect", kRunning, "collecting"));
+  r.addStatus(status(9, "camera/collect", kFailed, "no board in view over a full turn"));
+  ASSERT_TRUE(r.ended());
+  r.addStatus(status(10, "camera/collect", kRunning, "late"));
+  EXPECT_FALSE(r.record().succeeded());
+  EXPECT_EQ(r.record().failure(), "camera: no board in view over a full turn");
+  EXPECT_EQ(r.record().stage("odometry")->state, StageState::kPending);
+}
+
+TEST(RunRecorder, DeadStageAndInterruption) {
+  RunRecorder r("autobot", {"wheels"});
+  r.addStatus(status(2, "wheels/iterate", kRunning, "it"));
+  r.markStageDead("wheels", "/autobot/wheel_calibration_node died");
+  EXPECT_TRUE(r.ended());
+  EXPECT_EQ(r.record().failure(), "wheels: /autobot/wheel_calibration_node died");
+  RunRecorder s("autobot", {"camera"});
+  s.markInterrupted("interrupted");
+  EXPECT_TRUE(s.ended());
+  EXPECT_EQ(s.record().failure(), "interrupted");
+  EXPECT_THROW(RunRecorder("a", {}), ConfigError);
+  EXPECT_THROW(RunRecorder("a", {"camera", "camera"}), ConfigError);
+  EXPECT_THROW(RunRecorder("a", {"camera/x"}), ConfigError);
+}
+
+TEST(BelievedPath, IntegratesTheEncoders) {
+  RunRecorder r("autobot", {"wheels"});
+  const int tpr = 135;
+  const double radius = 0.0318, baseline = 0.1;
+  // 1 m straight ahead, then a quarter turn in place to the left, then 0.5 m.
+  const int straight = static_cast<int>(std::lround(1.0 / (2 * M_PI * radius) * tpr));
+  const int quarter =
+      static_cast<int>(std::lround(M_PI / 4 * baseline / (2 * M_PI * radius) * tpr));
+  int left = 0, right = 0;
+  double t = 0;
+  for (int i = 0; i <= straight; ++i) r.addEncoders(t += 0.1, left = i, right = i, tpr);
+  for (int i = 1; i <= quarter; ++i) r.addEncoders(t += 0.1, left - i, right + i, tpr);
+  left -= quarter, right += quarter;
+  const int half = straight / 2;
+  for (int i = 1; i <= half; ++i) r.addEncoders(t += 0.1, left + i, right + i, tpr);
+  const std::vector<PathPoint> path = believedPath(r.record(), radius, baseline);
+  ASSERT_FALSE(path.empty());
+  const double tick = 2 * M_PI * radius / tpr;
+  EXPECT_NEAR(path.back().x_m, 1.0, 2 * tick);
+  EXPECT_NEAR(path.back().y_m, 0.5, 3 * tick);
+  EXPECT_NEAR(path.back().theta_rad, M_PI / 2, 2 * tick / baseline);
+  // Readings closer than 50 ms are not kept.
+  RunRecorder q("autobot", {"wheels"});
+  q.addEncoders(1.00, 0, 0, tpr);
+  q.addEncoders(1.01, 1, 1, tpr);
+  q.addEncoders(1.06, 2, 2, tpr);
+  EXPECT_EQ(q.record().encoders.size(), 2u);
+}
+
+TEST(Report, WritesTheSheetAndTheSummary) {
+  const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "views");
+  // An audit with two views whose corners cover two cells.
+  cv::Mat img(480, 640, CV_8UC3, cv::Scalar(128, 128, 128));
+  ASSERT_TRUE(cv::imwrite((dir / "views" / "view_000.png").string(), img));
+  {
+    std::ofstream f(dir / "views" / "views.yaml");
+    f << "board: {inner_corners: 7x5, square_size_m: 0.031}\nimage: {width: 640, height: 480}\n"
+         "rms_px: 0.1\nviews:\n  - image: view_000.png\n    rms_px: 0.09\n"
+         "    corners: [[10, 10], [20, 12]]\n  - image: view_001.png\n    rms_px: 0.11\n"
+         "    corners: [[630, 470]]\n";
+  }
+  const ViewsAudit audit = loadViewsAudit((dir / "views" / "views.yaml").string());
+  ASSERT_EQ(audit.views.size(), 2u);
+  EXPECT_DOUBLE_EQ(cornerCoverage(audit), 2.0 / 48);
+
+  RunRecorder r("autobot", {"camera", "wheels"});
+  r.addStatus(status(1, "camera/write", kDone, "wrote c.yaml", {{"rms_px", 0.1}}));
+  r.addStatus(status(2, "wheels/iterate", kRunning, "it", {{"iteration", 1}, {"k", 1.02}}));
+  r.addStatus(status(3, "wheels/iterate", kFailed, "the floor tags were lost"));
+  for (int i = 0; i < 20; ++i) r.addEncoders(i, 3 * i, 3 * i, 135);
+  ReportOptions o;
+  const ReportFiles files =
+      writeReport((dir / "out").string(), r.record(), (dir / "views" / "views.yaml").string(), o);
+  const cv::Mat sheet = cv::imread(files.sheet_png);
+  EXPECT_EQ(sheet.cols, 1600);
+  EXPECT_EQ(sheet.rows, 1040);
+  YamlMap summary = YamlMap::loadFile(files.summary_yaml);
+  EXPECT_EQ(summary.required<std::string>("result"), "failed");
+  EXPECT_EQ(summary.required<std::string>("failure"), "wheels: the floor tags were lost");
+  EXPECT_EQ(summary.map("stages").map("camera").required<std::string>("state"), "done");
+  EXPECT_EQ(summary.map("camera_views").required<int>("count"), 2);
+  EXPECT_FALSE(summary.required<bool>("gates_passed"));
+  // Gates: both stages, the camera's RMS (passes) and coverage (2 of 48 cells: fails).
+  const std::vector<Gate> gates = evaluateGates(r.record(), audit, o);
+  ASSERT_EQ(gates.size(), 4u);
+  EXPECT_TRUE(gates[0].passed);
+  EXPECT_FALSE(gates[1].passed);
+  EXPECT_TRUE(gates[2].passed);
+  EXPECT_FALSE(gates[3].passed);
+  EXPECT_THROW(loadViewsAudit((dir / "none.yaml").string()), IoError);
+  fs::remove_all(dir);
+}

@@ -12,3 +12,16 @@ autocal_ros_target(run_report_node)
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_run_report SOURCES test/report/test_run_report.cpp LIBS autocal_core)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # SIGKILL of a stage's node mid-run (run_kill.test), judged by the simulator's truth.
+  add_executable(test_run_kill EXCLUDE_FROM_ALL test/report/test_run_kill.cpp)
+  target_link_libraries(test_run_kill autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_run_kill PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_run_kill)
+  add_dependencies(tests test_run_kill)
+  add_rostest(test/report/run_kill.test ARGS stage:=camera
+    DEPENDENCIES test_run_kill run_report_node camera_calibration_node sim_node)
+  add_rostest(test/report/run_kill.test ARGS stage:=wheels
+    DEPENDENCIES test_run_kill run_report_node wheel_calibration_node sim_node)
+endif()

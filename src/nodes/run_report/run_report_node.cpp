@@ -1,9 +1,5 @@
 #include "run_report_node.h"
 
-#include <ros/master.h>
-#include <ros/network.h>
-#include <xmlrpcpp/XmlRpcClient.h>
-
 #include <filesystem>
 #include <sstream>
 
@@ -29,24 +25,6 @@ std::vector<std::string> splitList(const std::string& text) {
     if (!item.empty()) out.push_back(item);
   }
   return out;
-}
-
-// Whether a node answers getPid at the URI the master has for it (what `rosnode ping` does): a
-// killed process keeps its registration, but its XML-RPC port is closed.
-bool nodeAnswers(const std::string& node) {
-  XmlRpc::XmlRpcValue args, result, payload;
-  args[0] = ros::this_node::getName();
-  args[1] = node;
-  if (!ros::master::execute("lookupNode", args, result, payload, false)) return false;
-  std::string host;
-  uint32_t port = 0;
-  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return false;
-  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
-  XmlRpc::XmlRpcValue ping, answer;
-  ping[0] = ros::this_node::getName();
-  const bool ok = client.execute("getPid", ping, answer) && !client.isFault();
-  client.close();
-  return ok;
 }
 
 }  // namespace
@@ -123,7 +101,12 @@ void RunReportNode::checkStagesAlive() {
   for (const StageRecord& s : recorder_->record().stages) {
     if (s.state != StageState::kRunning) continue;
     const auto it = stage_publisher_.find(s.stage);
-    if (it == stage_publisher_.end() || nodeAnswers(it->second)) continue;
+    if (it == stage_publisher_.end()) continue;
+    if (ros_layer::nodePid(it->second) > 0) {
+      failed_pings_[s.stage] = 0;
+      continue;
+    }
+    if (++failed_pings_[s.stage] < 2) continue;  // two in a row: not a busy moment
     const std::string why = it->second + " died while the stage was running (no DONE or FAILED)";
     recorder_->markStageDead(s.stage, why);
     // In the stage's name, so that a later stage waiting for its DONE gives up.

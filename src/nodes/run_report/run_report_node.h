@@ -68,6 +68,7 @@ class RunReportNode {
   std::exception_ptr error_;
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it
   std::map<std::string, std::string> printed_;          ///< stage → last progress line printed
+  std::map<std::string, int> failed_pings_;             ///< stage → pings unanswered in a row
   ros::WallTime last_ping_;
   ros::Time waiting_since_;
   std::string waiting_for_;

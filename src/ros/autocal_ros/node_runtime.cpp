@@ -1,5 +1,9 @@
 #include "autocal_ros/node_runtime.h"
 
+#include <ros/master.h>
+#include <ros/network.h>
+#include <xmlrpcpp/XmlRpcClient.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -124,6 +128,28 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   }
   ros::shutdown();
   return toInt(ExitCode::kOk);
+}
+
+int nodePid(const std::string& name) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = name;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return -1;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(static_cast<std::string>(payload), host, port)) return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue ping, answer;
+  ping[0] = ros::this_node::getName();
+  int pid = -1;
+  // The answer is [code, status message, pid].
+  if (client.execute("getPid", ping, answer) && !client.isFault() &&
+      answer.getType() == XmlRpc::XmlRpcValue::TypeArray && answer.size() == 3 &&
+      answer[2].getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    pid = static_cast<int>(answer[2]);
+  }
+  client.close();
+  return pid;
 }
 
 }  // namespace ros_layer

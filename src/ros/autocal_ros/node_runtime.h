@@ -95,6 +95,11 @@ bool runStageLoop(Stage& stage, Done done, double rate_hz, const std::exception_
 /// True after SIGINT or SIGTERM.
 bool interrupted();
 
+/// The process id of the ROS node `name` (e.g. "/autobot/wheel_calibration_node"), asked over its
+/// XML-RPC port as `rosnode ping` does; -1 when the master does not know it or it does not answer
+/// (a killed node stays registered, but its port is closed).
+int nodePid(const std::string& name);
+
 struct NodeRunOptions {
   std::string name;  ///< ros::init name and log prefix, e.g. "sim_node"
   std::string status_topic = "calibration/status";

@@ -86,3 +86,11 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/odometry/umbmark_node.test
     DEPENDENCIES test_umbmark_node odometry_calibration_node umbmark_error_helper sim_node)
 endif()
+if(CATKIN_ENABLE_TESTING)
+  # make bench: UAH vs UMBmark per robot config against the truth (scripts/bench/odometry.sh).
+  add_executable(odometry_bench bench/odometry_bench.cpp)
+  target_link_libraries(odometry_bench autocal_odometry_test_support)
+  target_compile_definitions(odometry_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+  target_compile_options(odometry_bench PRIVATE ${AUTOCAL_WARNINGS})
+  set_target_properties(odometry_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
+endif()

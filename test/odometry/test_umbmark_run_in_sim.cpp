@@ -218,3 +218,58 @@ TEST(UmbmarkRunInSimBadInput, AnErrorInCentimetresIsRefused) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(UmbmarkRunInSimErrorsAtTheEnd, GivesTheSameResultAsErrorsAfterEachSquare) {
+  // The errors-file mode (~errors_file): every square driven first, pausing after each while a
+  // person marks where the robot stopped; then all the errors at once. Here they come from the
+  // truth as each square ends; the result must be what the per-square mode finds (test above).
+  const OdometryTestRobot r = test::odometryTestRobots().at(0);
+  sim::Simulation simulation(r.robot, world("world_straight.yaml"), sim::SimulationOptions());
+  odometry::UmbmarkRunOptions options =
+      umbmarkOptions(r.robot, r.nominal_radius_m, r.nominal_wheelbase_m);
+  options.runs_per_direction = 3;
+  options.errors_after_all = true;
+  options.run_pause_s = 2.0;
+  odometry::UmbmarkRun run(options);
+  std::vector<odometry::ReturnError> cw, ccw;
+  Pose2D start = simulation.pose();
+  bool moving = false;
+  size_t squares = 0;
+  double paused_s = 0;
+  while (simulation.time_s() < 600 && !run.needsAllReturnErrors()) {
+    const double t = simulation.time_s();
+    run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
+                    simulation.encoderTicks(sim::Side::kRight));
+    const WheelDuties d = run.update(t);
+    if (!moving && (d.left != 0 || d.right != 0)) start = simulation.pose(), moving = true;
+    if (!moving && squares > 0) paused_s += 0.02;
+    if (run.computedEnds().size() > squares) {
+      squares = run.computedEnds().size();
+      const Pose2D p = simulation.pose(), computed = run.computedEnds().back();
+      const double dx = p.x_m - start.x_m, dy = p.y_m - start.y_m;
+      const double c = std::cos(start.yaw_rad), s = std::sin(start.yaw_rad);
+      const odometry::ReturnError e{c * dx + s * dy - computed.x_m,
+                                    -s * dx + c * dy - computed.y_m};
+      (squares <= 3 ? cw : ccw).push_back(e);
+      moving = false;
+    }
+    simulation.setDuty(d.left, d.right);
+    simulation.advance(0.02);
+  }
+  ASSERT_TRUE(run.needsAllReturnErrors()) << run.describe();
+  EXPECT_EQ(run.computedEnds().size(), 6u);
+  EXPECT_GE(paused_s, 5 * 2.0 - 0.5) << "the robot did not pause between squares";
+  EXPECT_THROW(run.setReturnErrors(cw, {}), InputError);  // counts must match the squares
+  run.setReturnErrors(cw, ccw);
+  ASSERT_TRUE(run.done()) << run.failure();
+  const double Ed = trueEd(r.robot),
+               Eb = trueEb(r.robot, r.nominal_radius_m, r.nominal_wheelbase_m);
+  std::printf("[errors at the end] Ed %.5f (true %.5f), Eb %.5f (true %.5f)\n", run.result().Ed, Ed,
+              run.result().Eb, Eb);
+  EXPECT_LT(std::abs(run.result().Ed / Ed - 1), 0.005);
+  EXPECT_LT(std::abs(run.result().Eb / Eb - 1), 0.005);
+}
+
+}  // namespace

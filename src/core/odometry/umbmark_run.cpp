@@ -310,7 +310,7 @@ WheelDuties UmbmarkRun::update(double now_s) {
   }
   if (motion_ == Motion::kSettle) {
     if (settled(now_s)) onSettled(now_s);
-    if (motion_ == Motion::kSettle || motion_ == Motion::kNone) return duties_ = {};
+    if (motion_ != Motion::kDrive && motion_ != Motion::kTurn) return duties_ = {};
   }
   if (!clock_started_) {
     clock_started_ = true;

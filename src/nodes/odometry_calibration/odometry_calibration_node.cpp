@@ -55,6 +55,33 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("connect_wait_s", o.connect_wait_s);
   p.get("status_rate_hz", o.status_rate_hz);
   p.get("method", o.method);
+  // Only the chosen method's keys are read (and echoed); the rest keep their defaults.
+  if (o.method == "umbmark") {
+    UmbmarkRunOptions& u = o.umbmark;
+    p.get("side_m", u.side_m);
+    p.get("runs_per_direction", u.runs_per_direction);
+    std::string expressions = toString(u.expressions);
+    p.get("expressions", expressions);
+    try {
+      u.expressions = umbmarkExpressionsFromName(expressions);
+    } catch (const ConfigError&) {
+      ros_layer::checkParam(false, "expressions", "must be original or corrected");
+    }
+    p.get("drive_rate_pulses_per_s", u.drive_rate_pulses_per_s);
+    p.get("turn_rate_pulses_per_s", u.turn_rate_pulses_per_s);
+    p.get("start_duty", u.start_duty);
+    p.get("max_duty", u.max_duty);
+    p.get("max_return_error_fraction", u.max_return_error_fraction);
+    p.get("stall_s", u.stall_s);
+    p.get("encoder_timeout_s", u.encoder_timeout_s);
+    p.get("error_timeout_s", u.error_timeout_s);
+    p.get("max_duration_s", u.max_duration_s);
+    p.get("errors_file", o.errors_file);
+    u.errors_after_all = !o.errors_file.empty();
+    if (u.errors_after_all) p.get("run_pause_s", u.run_pause_s);
+    o.validate();
+    return o;
+  }
   UahRunOptions& r = o.run;
   p.get("rounds", r.rounds);
   p.get("pivot_experiments", r.pivot_experiments);
@@ -78,29 +105,6 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("range_timeout_s", r.range_timeout_s);
   p.get("length_timeout_s", r.length_timeout_s);
   p.get("max_duration_s", r.max_duration_s);
-  UmbmarkRunOptions& u = o.umbmark;
-  p.get("side_m", u.side_m);
-  p.get("runs_per_direction", u.runs_per_direction);
-  std::string expressions = toString(u.expressions);
-  p.get("expressions", expressions);
-  try {
-    u.expressions = umbmarkExpressionsFromName(expressions);
-  } catch (const ConfigError&) {
-    ros_layer::checkParam(false, "expressions", "must be original or corrected");
-  }
-  p.get("drive_rate_pulses_per_s", u.drive_rate_pulses_per_s);
-  p.get("turn_rate_pulses_per_s", u.turn_rate_pulses_per_s);
-  p.get("max_return_error_fraction", u.max_return_error_fraction);
-  p.get("error_timeout_s", u.error_timeout_s);
-  p.get("run_pause_s", u.run_pause_s);
-  p.get("errors_file", o.errors_file);
-  u.errors_after_all = !o.errors_file.empty();
-  // The keys both methods share.
-  p.get("start_duty", u.start_duty);
-  p.get("max_duty", u.max_duty);
-  p.get("stall_s", u.stall_s);
-  p.get("encoder_timeout_s", u.encoder_timeout_s);
-  if (o.method == "umbmark") p.get("max_duration_s", u.max_duration_s);
   o.validate();
   return o;
 }
@@ -243,8 +247,10 @@ void OdometryCalibrationNode::run() {
     ros::spinOnce();
     if (error_) std::rethrow_exception(error_);
     if (!run_ && !umbmark_run_) {
+      const double encoder_timeout_s =
+          umbmark() ? options_.umbmark.encoder_timeout_s : options_.run.encoder_timeout_s;
       if ((ros::WallTime::now() - wait_start).toSec() >
-          options_.run.encoder_timeout_s + options_.connect_wait_s) {
+          encoder_timeout_s + options_.connect_wait_s) {
         throw InputError("no encoder readings on left/right_wheel_encoder_node/tick");
       }
       wheels_.command(0, 0);

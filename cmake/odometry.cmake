@@ -85,6 +85,9 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_umbmark_node)
   add_rostest(test/odometry/umbmark_node.test
     DEPENDENCIES test_umbmark_node odometry_calibration_node umbmark_error_helper sim_node)
+  # ... and its failure path: a return error in centimetres is refused, nothing written.
+  add_rostest(test/odometry/umbmark_node_bad_error.test
+    DEPENDENCIES test_umbmark_node odometry_calibration_node sim_node)
 endif()
 if(CATKIN_ENABLE_TESTING)
   # make bench: UAH vs UMBmark per robot config against the truth (scripts/bench/odometry.sh).

@@ -2,8 +2,12 @@
 // judged by the truth the test reads from the robot config (the node never reads it): the written
 // odometry/<veh>.yaml's method, Ed and Eb against the config's wheel radii and wheelbase, and the
 // status protocol (every square through odometry/umbmark_cw and odometry/umbmark_ccw, each
-// waiting for its return error). Tolerances are the .test file's parameters.
+// waiting for its return error). Tolerances are the .test file's parameters. And the failure path
+// (umbmark_node_bad_error.test): an error given in centimetres is refused, nothing is written, the
+// robot stands still. Each .test file runs its one test (--gtest_filter).
+#include <geometry_msgs/Point.h>
 #include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <yaml-cpp/yaml.h>
 
@@ -81,6 +85,45 @@ TEST(UmbmarkNode, WritesTheTrueWheelsFromTheSquares) {
             << 100 * e_Eb << " %)" << std::endl;
   EXPECT_LT(std::abs(e_Ed), testParam<double>("max_Ed_error"));
   EXPECT_LT(std::abs(e_Eb), testParam<double>("max_Eb_error"));
+}
+
+TEST(UmbmarkNode, RefusesAnErrorGivenInCentimetres) {
+  // umbmark_node_bad_error.test: no helper; the first square's error is given in centimetres.
+  const std::string veh = testParam<std::string>("veh");
+  const std::string root = testParam<std::string>("calibration_root");
+  fs::remove_all(root);
+  ros::NodeHandle nh(veh);
+  std::optional<CalibrationStatus> end;
+  bool given = false;
+  ros::Publisher error_pub =
+      nh.advertise<geometry_msgs::Point>("odometry_calibration_node/return_error", 1, true);
+  std::optional<nav_msgs::Odometry> truth;
+  ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 100, [&](const nav_msgs::Odometry::ConstPtr& m) { truth = *m; });
+  ros::Subscriber status_sub = nh.subscribe<CalibrationStatus>(
+      "calibration/status", 1000, [&](const CalibrationStatus::ConstPtr& m) {
+        if (!given && figure(*m, "awaiting_error") == 1.0) {
+          geometry_msgs::Point cm;
+          cm.x = -20.5, cm.y = -38.6;  // centimetres
+          error_pub.publish(cm);
+          given = true;
+        }
+        if (m->state == CalibrationStatus::STATE_FAILED ||
+            (m->phase.rfind("odometry/", 0) == 0 && m->state == CalibrationStatus::STATE_DONE))
+          end = *m;
+      });
+  ASSERT_TRUE(spinUntil([&] { return end.has_value(); }, testParam<double>("wall_budget_s")))
+      << "no DONE or FAILED from odometry_calibration_node";
+  EXPECT_TRUE(given) << "the node never waited for a return error";
+  ASSERT_EQ(end->state, CalibrationStatus::STATE_FAILED) << end->text;
+  std::cout << "failed: " << end->failure_reason << std::endl;
+  EXPECT_NE(end->failure_reason.find("metres expected"), std::string::npos) << end->failure_reason;
+  EXPECT_FALSE(fs::exists(autocal::odometry::odometryCalibrationPath(root, veh)));
+  // The wheels: still one second (of sim time) after the failure.
+  const double t_end = end->header.stamp.toSec();
+  ASSERT_TRUE(spinUntil([&] { return truth && truth->header.stamp.toSec() > t_end + 1.0; }, 30.0));
+  EXPECT_LT(std::hypot(truth->twist.twist.linear.x, truth->twist.twist.linear.y), 0.001);
+  EXPECT_LT(std::abs(truth->twist.twist.angular.z), 0.01);
 }
 
 }  // namespace

@@ -47,6 +47,11 @@ add_executable(straight_length_helper src/nodes/odometry_calibration/straight_le
 target_link_libraries(straight_length_helper autocal_ros)
 target_compile_options(straight_length_helper PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(straight_length_helper)
+# ... and for UMBmark's return errors (method:=umbmark).
+add_executable(umbmark_error_helper src/nodes/odometry_calibration/umbmark_error_helper.cpp)
+target_link_libraries(umbmark_error_helper autocal_ros)
+target_compile_options(umbmark_error_helper PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(umbmark_error_helper)
 
 if(CATKIN_ENABLE_TESTING)
   # The UAH stage through ROS in the simulator (odometry_node.test), judged by the robot config.
@@ -57,4 +62,38 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_odometry_node)
   add_rostest(test/odometry/odometry_node.test
     DEPENDENCIES test_odometry_node odometry_calibration_node straight_length_helper sim_node)
+endif()
+
+# UMBmark driven by the robot (odometry::UmbmarkRun), its test on the simulator's core (beside UAH
+# on the same robots) and the odometry benchmark (scripts/bench/odometry.sh).
+target_sources(autocal_core PRIVATE src/core/odometry/umbmark_run.cpp)
+if(CATKIN_ENABLE_TESTING)
+  add_library(autocal_odometry_test_support STATIC test/support/odometry_in_sim.cpp)
+  target_include_directories(autocal_odometry_test_support PUBLIC test)
+  target_link_libraries(autocal_odometry_test_support PUBLIC autocal_core autocal_sim_core)
+  target_compile_definitions(autocal_odometry_test_support PRIVATE
+    AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+  autocal_core_gtest(test_umbmark_run_in_sim SOURCES test/odometry/test_umbmark_run_in_sim.cpp
+                     LIBS autocal_odometry_test_support)
+endif()
+if(CATKIN_ENABLE_TESTING)
+  # method:=umbmark through ROS in the simulator (umbmark_node.test), judged by the robot config.
+  add_executable(test_umbmark_node EXCLUDE_FROM_ALL test/odometry/test_umbmark_node.cpp)
+  target_link_libraries(test_umbmark_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_umbmark_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_umbmark_node)
+  add_dependencies(tests test_umbmark_node)
+  add_rostest(test/odometry/umbmark_node.test
+    DEPENDENCIES test_umbmark_node odometry_calibration_node umbmark_error_helper sim_node)
+  # ... and its failure path: a return error in centimetres is refused, nothing written.
+  add_rostest(test/odometry/umbmark_node_bad_error.test
+    DEPENDENCIES test_umbmark_node odometry_calibration_node sim_node)
+endif()
+if(CATKIN_ENABLE_TESTING)
+  # make bench: UAH vs UMBmark per robot config against the truth (scripts/bench/odometry.sh).
+  add_executable(odometry_bench bench/odometry_bench.cpp)
+  target_link_libraries(odometry_bench autocal_odometry_test_support)
+  target_compile_definitions(odometry_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
+  target_compile_options(odometry_bench PRIVATE ${AUTOCAL_WARNINGS})
+  set_target_properties(odometry_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 endif()

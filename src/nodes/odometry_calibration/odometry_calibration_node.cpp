@@ -1,5 +1,6 @@
 #include "odometry_calibration_node.h"
 
+#include <geometry_msgs/Point.h>
 #include <std_msgs/Float64.h>
 
 #include <cmath>
@@ -29,9 +30,14 @@ void OdometryCalibrationNodeOptions::validate() const {
                         "must be >= 0");
   ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
                         "must be > 0");
+  ros_layer::checkParam(method == "uah" || method == "umbmark", "method",
+                        "must be uah or umbmark, got '" + method + "'");
   UahRunOptions r = run;
   r.nominal = DiffDriveParams::fromWheel(2 * wheel_radius_m, 100, wheelbase_m);  // set later
   ros_layer::validateParams(r);
+  UmbmarkRunOptions u = umbmark;
+  u.nominal = r.nominal;
+  ros_layer::validateParams(u);
 }
 
 namespace {
@@ -48,6 +54,34 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("control_rate_hz", o.control_rate_hz);
   p.get("connect_wait_s", o.connect_wait_s);
   p.get("status_rate_hz", o.status_rate_hz);
+  p.get("method", o.method);
+  // Only the chosen method's keys are read (and echoed); the rest keep their defaults.
+  if (o.method == "umbmark") {
+    UmbmarkRunOptions& u = o.umbmark;
+    p.get("side_m", u.side_m);
+    p.get("runs_per_direction", u.runs_per_direction);
+    std::string expressions = toString(u.expressions);
+    p.get("expressions", expressions);
+    try {
+      u.expressions = umbmarkExpressionsFromName(expressions);
+    } catch (const ConfigError&) {
+      ros_layer::checkParam(false, "expressions", "must be original or corrected");
+    }
+    p.get("drive_rate_pulses_per_s", u.drive_rate_pulses_per_s);
+    p.get("turn_rate_pulses_per_s", u.turn_rate_pulses_per_s);
+    p.get("start_duty", u.start_duty);
+    p.get("max_duty", u.max_duty);
+    p.get("max_return_error_fraction", u.max_return_error_fraction);
+    p.get("stall_s", u.stall_s);
+    p.get("encoder_timeout_s", u.encoder_timeout_s);
+    p.get("error_timeout_s", u.error_timeout_s);
+    p.get("max_duration_s", u.max_duration_s);
+    p.get("errors_file", o.errors_file);
+    u.errors_after_all = !o.errors_file.empty();
+    if (u.errors_after_all) p.get("run_pause_s", u.run_pause_s);
+    o.validate();
+    return o;
+  }
   UahRunOptions& r = o.run;
   p.get("rounds", r.rounds);
   p.get("pivot_experiments", r.pivot_experiments);
@@ -89,6 +123,21 @@ void OdometryCalibrationNode::start(int ticks_per_revolution) {
       options_.ticks_per_revolution > 0 ? options_.ticks_per_revolution : ticks_per_revolution;
   r.nominal =
       DiffDriveParams::fromWheel(2 * options_.wheel_radius_m, resolution, options_.wheelbase_m);
+  if (umbmark()) {
+    UmbmarkRunOptions u = options_.umbmark;
+    u.nominal = r.nominal;
+    const std::string errors = options_.errors_file.empty()
+                                   ? "on ~return_error after each square"
+                                   : "from " + options_.errors_file + " after all squares";
+    ROS_INFO(
+        "odometry_calibration_node: UMBmark: nominal radius %.4f m, wheelbase %.4f m, %d "
+        "ticks/rev; "
+        "%d squares of %.2f m each way (%s expressions), return errors %s; calibration root %s",
+        options_.wheel_radius_m, options_.wheelbase_m, resolution, u.runs_per_direction, u.side_m,
+        toString(u.expressions).c_str(), errors.c_str(), options_.calibration_root.c_str());
+    umbmark_run_ = std::make_unique<UmbmarkRun>(u);
+    return;
+  }
   ROS_INFO(
       "odometry_calibration_node: nominal radius %.4f m, wheelbase %.4f m, %d ticks/rev; %d rounds "
       "x %d pivot experiments per wheel, spin, %d straight runs of %.2f m (heading within %.2f "
@@ -125,8 +174,12 @@ void OdometryCalibrationNode::run() {
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
-        if (!run_) start(resolution);
-        run_->addEncoders(stamp.toSec(), left, right);
+        if (!run_ && !umbmark_run_) start(resolution);
+        if (umbmark_run_) {
+          umbmark_run_->addEncoders(stamp.toSec(), left, right);
+        } else {
+          run_->addEncoders(stamp.toSec(), left, right);
+        }
       },
       &error_);
   range_sub_ = nh_.subscribe<sensor_msgs::Range>(
@@ -134,6 +187,26 @@ void OdometryCalibrationNode::run() {
         if (!run_) return;
         const RangeReading r = ros_layer::fromRangeMsg(*msg);
         run_->addRange(r.stamp_s, r.range_m);
+      });
+  error_sub_ = pnh_.subscribe<geometry_msgs::Point>(
+      "return_error", 5, [this](const geometry_msgs::Point::ConstPtr& msg) {
+        if (!umbmark_run_ || !umbmark_run_->needsReturnError()) {
+          ROS_WARN(
+              "odometry_calibration_node: a return error (%.4f, %.4f) m arrived while no UMBmark "
+              "square waits for one: ignored",
+              msg->x, msg->y);
+          return;
+        }
+        const std::string which = std::string(name(umbmark_run_->phase())) + " run " +
+                                  std::to_string(umbmark_run_->runInDirection());
+        try {
+          umbmark_run_->setReturnError({msg->x, msg->y});
+        } catch (...) {
+          error_ = std::current_exception();
+          return;
+        }
+        ROS_INFO("odometry_calibration_node: %s: return error (%.4f, %.4f) m", which.c_str(),
+                 msg->x, msg->y);
       });
   length_sub_ = pnh_.subscribe<std_msgs::Float64>(
       "straight_length", 5, [this](const std_msgs::Float64::ConstPtr& msg) {
@@ -164,32 +237,131 @@ void OdometryCalibrationNode::run() {
   // until a wheels_cmd publisher appears). Wall time: a held clock does not move.
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
   while (ros_layer::ok() && ros::WallTime::now() < end &&
-         (!encoders_->connected() || range_sub_.getNumPublishers() == 0)) {
+         (!encoders_->connected() || (!umbmark() && range_sub_.getNumPublishers() == 0))) {
     ros::WallDuration(0.01).sleep();
   }
   wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
   ros::Rate rate(options_.control_rate_hz);
   const ros::WallTime wait_start = ros::WallTime::now();
-  while (ros_layer::ok() && !(run_ && run_->done())) {
+  while (ros_layer::ok() && !runDone()) {
     ros::spinOnce();
     if (error_) std::rethrow_exception(error_);
-    if (!run_) {
+    if (!run_ && !umbmark_run_) {
+      const double encoder_timeout_s =
+          umbmark() ? options_.umbmark.encoder_timeout_s : options_.run.encoder_timeout_s;
       if ((ros::WallTime::now() - wait_start).toSec() >
-          options_.run.encoder_timeout_s + options_.connect_wait_s) {
+          encoder_timeout_s + options_.connect_wait_s) {
         throw InputError("no encoder readings on left/right_wheel_encoder_node/tick");
       }
       wheels_.command(0, 0);
       rate.sleep();
       continue;
     }
-    const WheelDuties duties = run_->update(ros::Time::now().toSec());
-    wheels_.command(duties.left, duties.right);
-    publishStatus(false);
+    if (umbmark_run_) {
+      pollErrorsFile();
+      if (umbmark_run_->done()) break;
+      const WheelDuties duties = umbmark_run_->update(ros::Time::now().toSec());
+      wheels_.command(duties.left, duties.right);
+      publishUmbmarkStatus(false);
+    } else {
+      const WheelDuties duties = run_->update(ros::Time::now().toSec());
+      wheels_.command(duties.left, duties.right);
+      publishStatus(false);
+    }
     rate.sleep();
   }
   if (!ros_layer::ok()) return;  // interrupted: runNode stops the wheels
   wheels_.stop();
-  finish();
+  if (umbmark_run_) {
+    finishUmbmark();
+  } else {
+    finish();
+  }
+}
+
+void OdometryCalibrationNode::pollErrorsFile() {
+  if (!umbmark_run_->needsAllReturnErrors()) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_file_poll_).toSec() < 1.0) return;
+  last_file_poll_ = now;
+  // The person writes the file once every square is measured: until it reads whole with every
+  // square's error, wait (a half-written file is read again a second later).
+  std::vector<ReturnError> cw, ccw;
+  try {
+    loadUmbmarkErrors(options_.errors_file, &cw, &ccw);
+  } catch (const Error& e) {
+    ROS_WARN_THROTTLE(30, "odometry_calibration_node: waiting for the return errors in %s: %s",
+                      options_.errors_file.c_str(), e.what());
+    return;
+  }
+  const size_t n = static_cast<size_t>(options_.umbmark.runs_per_direction);
+  if (cw.size() != n || ccw.size() != n) {
+    ROS_WARN_THROTTLE(30,
+                      "odometry_calibration_node: %s holds %zu cw and %zu ccw errors, waiting "
+                      "for %zu of each",
+                      options_.errors_file.c_str(), cw.size(), ccw.size(), n);
+    return;
+  }
+  ROS_INFO("odometry_calibration_node: read %zu + %zu return errors from %s", cw.size(), ccw.size(),
+           options_.errors_file.c_str());
+  umbmark_run_->setReturnErrors(cw, ccw);
+}
+
+void OdometryCalibrationNode::publishUmbmarkStatus(bool force) {
+  const UmbmarkRun& u = *umbmark_run_;
+  const std::string phase = std::string("odometry/") + name(u.phase());
+  const int run_index = static_cast<int>(
+      u.clockwiseErrors().size() + u.counterClockwiseErrors().size() + u.computedEnds().size());
+  const std::string key = phase + "/" + std::to_string(u.runInDirection()) + "/" +
+                          std::to_string(u.leg()) + "/" + std::to_string(u.needsReturnError()) +
+                          "/" + std::to_string(u.needsAllReturnErrors()) + "/" +
+                          std::to_string(run_index);
+  const ros::Time now = ros::Time::now();
+  // Every change of square, leg or waiting is published at once (a helper or a person acts on
+  // it); the rest at status_rate_hz.
+  if (!force && key == last_key_ && (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
+    return;
+  if (key != last_key_) ROS_INFO("odometry_calibration_node: %s", u.describe().c_str());
+  last_key_ = key;
+  last_status_ = now;
+  status_.running(phase, u.progress(), u.describe(),
+                  {{"run", static_cast<double>(u.runInDirection())},
+                   {"leg", static_cast<double>(u.leg())},
+                   {"squares_driven", static_cast<double>(u.computedEnds().size())},
+                   {"awaiting_error", u.needsReturnError() ? 1.0 : 0.0},
+                   {"awaiting_errors_file", u.needsAllReturnErrors() ? 1.0 : 0.0},
+                   {"run_start_s", u.runStartS()},
+                   {"computed_x_m", u.computedPose().x_m},
+                   {"computed_y_m", u.computedPose().y_m},
+                   {"elapsed_s", u.elapsedS()}});
+}
+
+void OdometryCalibrationNode::finishUmbmark() {
+  const UmbmarkResult& r = umbmark_run_->result();
+  UmbmarkOptions umbmark_options = options_.umbmark.umbmark();
+  umbmark_options.wheelbase_m = options_.wheelbase_m;
+  const OdometryCalibration calibration =
+      toOdometryCalibration(r, umbmark_options, options_.veh,
+                            options_.errors_file.empty() ? "~return_error" : options_.errors_file);
+  const std::string path = odometryCalibrationPath(options_.calibration_root, options_.veh);
+  status_.running("odometry/write", 0.99, umbmark_run_->describe());
+  writeOdometryCalibration(path, calibration);  // the quality gate first; throws on failure
+  ROS_INFO(
+      "odometry_calibration_node: wrote %s: UMBmark (%s expressions) Ed %.5f, Eb %.5f (wheelbase "
+      "%.5f m), c_L x%.5f, c_R x%.5f, E_max,syst %.1f mm, %.1f s",
+      path.c_str(), calibration.expressions.c_str(), calibration.Ed, calibration.Eb,
+      calibration.wheelbase_m, calibration.left_pulse_factor, calibration.right_pulse_factor,
+      1000 * r.E_max_syst_m, umbmark_run_->elapsedS());
+  status_.done("odometry/write", "wrote " + path,
+               {{"Ed", calibration.Ed},
+                {"Eb", calibration.Eb},
+                {"wheelbase_m", calibration.wheelbase_m},
+                {"left_pulse_factor", calibration.left_pulse_factor},
+                {"right_pulse_factor", calibration.right_pulse_factor},
+                {"E_max_syst_m", r.E_max_syst_m},
+                {"runs_cw", static_cast<double>(r.runs_cw)},
+                {"runs_ccw", static_cast<double>(r.runs_ccw)},
+                {"elapsed_s", umbmark_run_->elapsedS()}});
 }
 
 void OdometryCalibrationNode::finish() {

@@ -4,6 +4,15 @@
 // odometry/<veh>.yaml (odometry::UahRun does the work; this class only wires ROS to it). README
 // "Odometry calibration node" lists the parameters.
 //
+// With ~method umbmark it drives UMBmark instead (odometry::UmbmarkRun): n squares clockwise, n
+// counter-clockwise on its own odometry; after each square it waits for that square's return
+// error ε = actual − computed [m] on ~return_error (geometry_msgs/Point, x and y in the square's
+// start frame) — measured by a person on a robot, or in the simulator by umbmark_error_helper from
+// sim/ground_truth — or, with ~errors_file set, it drives all squares (pausing ~run_pause_s after
+// each for the person to mark where it stopped) and then waits for that YAML file (the `umbmark`
+// command's format). Status phases odometry/umbmark_cw, odometry/umbmark_ccw, figures run, leg,
+// awaiting_error, run_start_s, computed_x_m, computed_y_m.
+//
 // The one measured input: each straight run's true start-to-end length, received on
 // ~straight_length (std_msgs/Float64, metres) while the status says the run waits for it — typed
 // by a person on a robot (`rostopic pub`), or in the simulator by straight_length_helper, which
@@ -24,6 +33,7 @@
 #include <string>
 
 #include "autocal/odometry/uah_run.h"
+#include "autocal/odometry/umbmark_run.h"
 #include "autocal_ros/node_runtime.h"
 #include "autocal_ros/sensor_inputs.h"
 
@@ -41,7 +51,13 @@ struct OdometryCalibrationNodeOptions {
   double control_rate_hz = 50;
   double connect_wait_s = 5.0;
   double status_rate_hz = 2.0;
+  /// "uah" (paper 002 §2) or "umbmark" (Borenstein & Feng).
+  std::string method = "uah";
   UahRunOptions run;
+  /// UMBmark: nominal is set at the start like run.nominal's.
+  UmbmarkRunOptions umbmark;
+  /// UMBmark's return errors from this YAML file after all squares instead of ~return_error.
+  std::string errors_file;
   /// Throws ConfigError naming the first bad key.
   void validate() const;
 };
@@ -56,10 +72,21 @@ class OdometryCalibrationNode {
   void start(int ticks_per_revolution);
   void publishStatus(bool force);
   void finish();
+  void publishUmbmarkStatus(bool force);
+  void finishUmbmark();
+  /// Errors-file mode: the file, once it holds every square's error.
+  void pollErrorsFile();
+  bool umbmark() const { return options_.method == "umbmark"; }
+  bool runDone() const {
+    return umbmark() ? umbmark_run_ && umbmark_run_->done() : run_ && run_->done();
+  }
 
   ros::NodeHandle nh_, pnh_;
   OdometryCalibrationNodeOptions options_;
   std::unique_ptr<UahRun> run_;
+  std::unique_ptr<UmbmarkRun> umbmark_run_;
+  ros::Subscriber error_sub_;
+  ros::WallTime last_file_poll_;
   ros_layer::StatusPublisher status_;
   ros_layer::WheelsCommander wheels_;
   std::unique_ptr<ros_layer::EncoderInput> encoders_;

@@ -1,0 +1,444 @@
+// UMBmark driven by the robot (Borenstein & Feng 1996; paper 002 §1.2, §3.2); see umbmark_run.h.
+#include "autocal/odometry/umbmark_run.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal/odometry/calibration_file.h"
+
+namespace autocal {
+namespace odometry {
+
+namespace {
+constexpr double kMaxSettleS = 3.0;
+constexpr double kRateWindowS = 0.4;
+
+const UmbmarkRunOptions& validated(const UmbmarkRunOptions& options) {
+  options.validate();
+  return options;
+}
+}  // namespace
+
+const char* name(UmbmarkPhase phase) {
+  switch (phase) {
+    case UmbmarkPhase::kWait:
+      return "wait";
+    case UmbmarkPhase::kClockwise:
+      return "umbmark_cw";
+    case UmbmarkPhase::kCounterClockwise:
+      return "umbmark_ccw";
+    case UmbmarkPhase::kDone:
+      return "done";
+    case UmbmarkPhase::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+void UmbmarkRunOptions::validate() const {
+  nominal.validate();
+  umbmark().validate();
+  checkConfig(side_m > 2 * nominal.wheelbase_m && side_m < 50, "side_m",
+              "must be within (2 wheelbases, 50) [m]");
+  checkConfig(runs_per_direction >= 1 && runs_per_direction <= 20, "runs_per_direction",
+              "must be within [1, 20]");
+  checkConfig(drive_rate_pulses_per_s > 0, "drive_rate_pulses_per_s", "must be > 0 [pulses/s]");
+  checkConfig(turn_rate_pulses_per_s > 0, "turn_rate_pulses_per_s", "must be > 0 [pulses/s]");
+  checkConfig(ramp_s > 0, "ramp_s", "must be > 0 [s]");
+  checkConfig(start_duty >= 0 && start_duty < 1, "start_duty", "must be within [0, 1)");
+  checkConfig(max_duty > start_duty && max_duty <= 1, "max_duty", "must be within (start_duty, 1]");
+  checkConfig(rate_gain_per_s > 0 && rate_gain_per_s < 5, "rate_gain_per_s",
+              "must be within (0, 5) [1/s]");
+  checkConfig(heading_gain_duty_per_pulse >= 0, "heading_gain_duty_per_pulse", "must be >= 0");
+  checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
+              "must be >= 0");
+  checkConfig(cross_track_gain_per_m >= 0, "cross_track_gain_per_m", "must be >= 0 [1/m]");
+  checkConfig(stop_lead_s >= 0 && stop_lead_s < 1, "stop_lead_s", "must be within [0, 1) [s]");
+  checkConfig(max_return_error_fraction > 0 && max_return_error_fraction <= 4,
+              "max_return_error_fraction", "must be within (0, 4]");
+  checkConfig(max_encoder_rate_pulses_per_s > 0, "max_encoder_rate_pulses_per_s", "must be > 0");
+  checkConfig(encoder_jump_window_s > 0, "encoder_jump_window_s", "must be > 0 [s]");
+  checkConfig(stall_s > 0, "stall_s", "must be > 0 [s]");
+  checkConfig(still_s > 0 && settle_s >= 0, "still_s", "still_s must be > 0, settle_s >= 0 [s]");
+  checkConfig(encoder_timeout_s > 0, "encoder_timeout_s", "must be > 0 [s]");
+  checkConfig(max_duration_s >= 0, "max_duration_s", "must be >= 0 [s] (0: no limit)");
+  checkConfig(error_timeout_s >= 0, "error_timeout_s", "must be >= 0 [s] (0: no limit)");
+  checkConfig(run_pause_s >= 0, "run_pause_s", "must be >= 0 [s]");
+}
+
+UmbmarkOptions UmbmarkRunOptions::umbmark() const {
+  UmbmarkOptions o;
+  o.side_m = side_m;
+  o.wheelbase_m = nominal.wheelbase_m;
+  o.expressions = expressions;
+  return o;
+}
+
+UmbmarkRun::UmbmarkRun(const UmbmarkRunOptions& options)
+    : options_(validated(options)), odometry_(options.nominal) {}
+
+void UmbmarkRun::fail(const std::string& why) {
+  phase_ = UmbmarkPhase::kFailed;
+  motion_ = Motion::kNone;
+  duties_ = {};
+  awaiting_error_ = false;
+  failure_ = why;
+  throw CalibrationError(why);
+}
+
+void UmbmarkRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
+  if (failed() || done()) return;
+  if (!have_encoders_) {
+    have_encoders_ = true;
+    raw_left_ = left_ticks, raw_right_ = right_ticks;
+    encoder_stamp_s_ = last_change_left_s_ = last_change_right_s_ = last_change_s_ = stamp_s;
+    return;
+  }
+  if (stamp_s < encoder_stamp_s_) return;
+  // 32-bit counts wrap around: the difference modulo 2^32 is the motion.
+  const auto diff = [](std::int32_t now, std::int32_t before) {
+    return static_cast<std::int32_t>(static_cast<std::uint32_t>(now) -
+                                     static_cast<std::uint32_t>(before));
+  };
+  const double dl = diff(left_ticks, raw_left_), dr = diff(right_ticks, raw_right_);
+  const double allowed = options_.max_encoder_rate_pulses_per_s *
+                             std::max(stamp_s - encoder_stamp_s_, options_.encoder_jump_window_s) +
+                         5;
+  if (std::abs(dl) > allowed || std::abs(dr) > allowed) {
+    fail("encoder jump: left " + formatNumber(dl, 8) + ", right " + formatNumber(dr, 8) +
+         " ticks in " + formatNumber(stamp_s - encoder_stamp_s_, 3) +
+         " s (an encoder reset or a glitch); the odometry of the square cannot be trusted");
+  }
+  raw_left_ = left_ticks, raw_right_ = right_ticks;
+  left_ += dl, right_ += dr;
+  if (dl != 0) last_change_left_s_ = stamp_s;
+  if (dr != 0) last_change_right_s_ = stamp_s;
+  if (dl != 0 || dr != 0) last_change_s_ = stamp_s;
+  encoder_stamp_s_ = stamp_s;
+  // The square's odometry (the robot may be pushed while waiting for an error: only motion
+  // during a run counts, and each run starts from zero).
+  if (motion_ != Motion::kNone && motion_ != Motion::kPause) odometry_.addPulses(dl, dr);
+  if (!recent_.empty() && recent_.back().stamp_s == stamp_s) {
+    recent_.back() = {stamp_s, left_, right_};
+  } else {
+    recent_.push_back({stamp_s, left_, right_});
+  }
+  while (recent_.size() > 2 && recent_.front().stamp_s < stamp_s - 1.0) {
+    recent_.erase(recent_.begin());
+  }
+}
+
+double UmbmarkRun::wheelRate(int side) const {
+  if (recent_.size() < 2) return 0.0;
+  const Sample& last = recent_.back();
+  size_t i = recent_.size() - 1;
+  while (i > 0 && recent_[i - 1].stamp_s >= last.stamp_s - kRateWindowS) --i;
+  const Sample& first = recent_[i];
+  const double dt = last.stamp_s - first.stamp_s;
+  if (dt < 0.1) return 0.0;
+  const double d = side == 0 ? last.left - first.left : last.right - first.right;
+  return std::abs(d) / dt;
+}
+
+int UmbmarkRun::runInDirection() const {
+  const int n = options_.runs_per_direction;
+  return std::min(runs_done_, 2 * n - 1) % n + 1;
+}
+
+void UmbmarkRun::startRun(double now_s) {
+  phase_ = runs_done_ < options_.runs_per_direction ? UmbmarkPhase::kClockwise
+                                                    : UmbmarkPhase::kCounterClockwise;
+  odometry_ = DeadReckoning(options_.nominal);
+  leg_ = 0;
+  run_start_s_ = now_s;
+  startLeg(now_s);
+  // The run's clock (and the helper's start pose) begins when its first duties go out.
+  clock_started_ = false;
+}
+
+void UmbmarkRun::startLeg(double now_s) {
+  motion_ = Motion::kDrive;
+  clock_started_ = false;
+  motion_start_s_ = now_s;
+  const double start = drive_duty_ > 0 ? drive_duty_ : options_.start_duty;
+  duty_mag_[0] = duty_mag_[1] = start;
+}
+
+void UmbmarkRun::startTurn(double now_s) {
+  motion_ = Motion::kTurn;
+  clock_started_ = false;
+  motion_start_s_ = now_s;
+  for (int side = 0; side < 2; ++side) {
+    duty_mag_[side] = turn_duty_[side] > 0 ? turn_duty_[side] : options_.start_duty;
+  }
+}
+
+void UmbmarkRun::stop(double now_s) {
+  if (motion_ == Motion::kDrive) drive_duty_ = 0.5 * (duty_mag_[0] + duty_mag_[1]);
+  if (motion_ == Motion::kTurn) turn_duty_[0] = duty_mag_[0], turn_duty_[1] = duty_mag_[1];
+  duties_ = {};
+  motion_ = Motion::kSettle;
+  stop_s_ = now_s;
+}
+
+bool UmbmarkRun::settled(double now_s) const {
+  if (now_s < stop_s_ + options_.settle_s) return false;
+  if (now_s >= stop_s_ + kMaxSettleS) return true;
+  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+}
+
+void UmbmarkRun::onSettled(double now_s) {
+  // After leg k comes turn k; after turn 3 the square is closed (the robot faces as it started).
+  if (!was_turning_) {
+    was_turning_ = true;
+    startTurn(now_s);
+    return;
+  }
+  was_turning_ = false;
+  if (leg_ < 3) {
+    ++leg_;
+    startLeg(now_s);
+    return;
+  }
+  computed_ends_.push_back(odometry_.pose());
+  motion_ = Motion::kNone;
+  awaiting_since_s_ = now_s;
+  if (!options_.errors_after_all) {
+    awaiting_error_ = true;
+    return;
+  }
+  ++runs_done_;
+  if (runs_done_ >= 2 * options_.runs_per_direction) {
+    awaiting_all_ = true;
+    return;
+  }
+  motion_ = Motion::kPause;
+  pause_until_s_ = now_s + options_.run_pause_s;
+}
+
+void UmbmarkRun::checkError(const ReturnError& error, const std::string& which) {
+  if (!std::isfinite(error.x_m) || !std::isfinite(error.y_m)) {
+    throw InputError(which + ": a return error must be two finite numbers [m], got (" +
+                     formatNumber(error.x_m) + ", " + formatNumber(error.y_m) + ")");
+  }
+  const double limit = options_.max_return_error_fraction * options_.side_m;
+  if (std::hypot(error.x_m, error.y_m) > limit) {
+    fail(which + ": the return error (" + formatNumber(error.x_m, 4) + ", " +
+         formatNumber(error.y_m, 4) + ") m is larger than " + formatNumber(limit, 3) + " m (" +
+         formatNumber(100 * options_.max_return_error_fraction, 3) +
+         " % of the side): metres expected; a wrong measurement, a slipping wheel or a run cut "
+         "short");
+  }
+}
+
+void UmbmarkRun::setReturnErrors(const std::vector<ReturnError>& cw,
+                                 const std::vector<ReturnError>& ccw) {
+  if (!awaiting_all_) throw InputError("the UMBmark run is not waiting for all its return errors");
+  const size_t n = static_cast<size_t>(options_.runs_per_direction);
+  if (cw.size() != n || ccw.size() != n) {
+    throw InputError("expected " + std::to_string(n) + " return errors in each direction (the " +
+                     "squares driven), got " + std::to_string(cw.size()) + " cw and " +
+                     std::to_string(ccw.size()) + " ccw");
+  }
+  for (size_t i = 0; i < n; ++i) checkError(cw[i], "cw[" + std::to_string(i) + "]");
+  for (size_t i = 0; i < n; ++i) checkError(ccw[i], "ccw[" + std::to_string(i) + "]");
+  awaiting_all_ = false;
+  cw_ = cw, ccw_ = ccw;
+  finish();
+}
+
+void UmbmarkRun::setReturnError(const ReturnError& error) {
+  if (!awaiting_error_) throw InputError("no UMBmark run is waiting for its return error");
+  checkError(error, std::string(name(phase_)) + " run " + std::to_string(runInDirection()));
+  awaiting_error_ = false;
+  (phase_ == UmbmarkPhase::kClockwise ? cw_ : ccw_).push_back(error);
+  ++runs_done_;
+  if (runs_done_ >= 2 * options_.runs_per_direction) {
+    finish();
+    return;
+  }
+  startRun(last_now_s_);
+}
+
+void UmbmarkRun::finish() {
+  try {
+    result_ = computeUmbmark(cw_, ccw_, options_.umbmark());
+    checkOdometryCalibration(toOdometryCalibration(result_, options_.umbmark(), "", ""));
+  } catch (const Error& e) {
+    fail(std::string("UMBmark: ") + e.what());
+  }
+  phase_ = UmbmarkPhase::kDone;
+  motion_ = Motion::kNone;
+  duties_ = {};
+}
+
+WheelDuties UmbmarkRun::update(double now_s) {
+  if (done() || failed()) return {};
+  if (!started_) {
+    started_ = true;
+    start_s_ = last_update_s_ = now_s;
+  }
+  const double dt = std::clamp(now_s - last_update_s_, 0.0, 0.2);
+  last_update_s_ = last_now_s_ = now_s;
+  if (options_.max_duration_s > 0 && now_s - start_s_ > options_.max_duration_s) {
+    fail("the UMBmark run took longer than max_duration_s (" +
+         formatNumber(options_.max_duration_s, 4) + " s) in " + name(phase_));
+  }
+  if (!have_encoders_) {
+    if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
+    return {};
+  }
+  if (motion_ != Motion::kNone && now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
+    fail("the encoders went silent for " + formatNumber(now_s - encoder_stamp_s_, 3) + " s");
+  }
+  if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
+  if (awaiting_error_ || awaiting_all_) {
+    if (options_.error_timeout_s > 0 && now_s - awaiting_since_s_ > options_.error_timeout_s) {
+      fail(std::string("no return error given for ") +
+           (awaiting_all_
+                ? std::string("the squares")
+                : name(phase_) + std::string(" run ") + std::to_string(runInDirection())) +
+           " in " + formatNumber(options_.error_timeout_s, 3) + " s");
+    }
+    return {};
+  }
+  if (motion_ == Motion::kPause) {
+    if (now_s < pause_until_s_) return duties_ = {};
+    startRun(now_s);
+  }
+  if (motion_ == Motion::kSettle) {
+    if (settled(now_s)) onSettled(now_s);
+    if (motion_ != Motion::kDrive && motion_ != Motion::kTurn) return duties_ = {};
+  }
+  if (!clock_started_) {
+    clock_started_ = true;
+    motion_start_s_ = now_s;
+    if (leg_ == 0 && motion_ == Motion::kDrive) run_start_s_ = now_s;
+  }
+  const double moving_s = now_s - motion_start_s_;
+  const DiffDriveParams& n = options_.nominal;
+  const double c_mean = 0.5 * (n.left_m_per_pulse + n.right_m_per_pulse);
+  const Pose2D& p = odometry_.pose();
+  const double s = turnSign();
+  // The square of umbmark.h in the run's frame: corner k at the end of leg k − 1, leg k heading
+  // s·k·π/2 (clockwise turns right).
+  const double heading = s * leg_ * M_PI / 2;
+  const double ux = std::cos(heading), uy = std::sin(heading);
+  double cx = 0, cy = 0;
+  for (int k = 0; k < leg_; ++k) {
+    cx += options_.side_m * std::cos(s * k * M_PI / 2);
+    cy += options_.side_m * std::sin(s * k * M_PI / 2);
+  }
+
+  auto follow = [&](int side, double measured, double target) {
+    const double error = 1.0 - measured / target;
+    duty_mag_[side] =
+        std::clamp(duty_mag_[side] + options_.rate_gain_per_s * dt * error, 0.0, options_.max_duty);
+  };
+  auto checkStall = [&](int side) {
+    const double last =
+        std::max(side == 0 ? last_change_left_s_ : last_change_right_s_, motion_start_s_);
+    if (now_s - last > options_.stall_s) {
+      fail(std::string(name(phase_)) + " run " + std::to_string(runInDirection()) + ", leg " +
+           std::to_string(leg_ + 1) + ": the " + (side == 0 ? "left" : "right") +
+           " wheel has not moved for " + formatNumber(now_s - last, 3) + " s at duty " +
+           formatNumber(duty_mag_[side], 3) + " (the robot stalled: blocked, or a motor fault)");
+    }
+  };
+
+  if (motion_ == Motion::kTurn) {
+    // A 90° turn in place on the odometry's heading: both wheels at the turn rate, opposite.
+    const double target = heading + s * M_PI / 2;
+    const double remaining = s * wrapAngle(target - p.yaw_rad);
+    const double yaw_rate = 2 * options_.turn_rate_pulses_per_s * c_mean / n.wheelbase_m;
+    if (remaining <= yaw_rate * options_.stop_lead_s) {
+      stop(now_s);
+      return duties_;
+    }
+    follow(0, wheelRate(0), options_.turn_rate_pulses_per_s);
+    follow(1, wheelRate(1), options_.turn_rate_pulses_per_s);
+    checkStall(0);
+    checkStall(1);
+    duties_ = {-s * duty_mag_[0], s * duty_mag_[1]};
+    return duties_;
+  }
+
+  // A leg: L along the leg's line by odometry, the heading held on the line (cross-track).
+  const double along = (p.x_m - cx) * ux + (p.y_m - cy) * uy;
+  const double offset = -(p.x_m - cx) * uy + (p.y_m - cy) * ux;  // left of the line: > 0
+  const double rate_target =
+      options_.turn_rate_pulses_per_s +
+      std::clamp(moving_s / options_.ramp_s, 0.0, 1.0) *
+          (options_.drive_rate_pulses_per_s - options_.turn_rate_pulses_per_s);
+  const double speed_m_s = rate_target * c_mean;
+  if (along >= options_.side_m - speed_m_s * options_.stop_lead_s) {
+    stop(now_s);
+    return duties_;
+  }
+  const double mean_rate = 0.5 * (wheelRate(0) + wheelRate(1));
+  follow(0, mean_rate, rate_target);
+  duty_mag_[1] = duty_mag_[0];
+  checkStall(0);
+  checkStall(1);
+  const double wanted = heading - std::atan(options_.cross_track_gain_per_m * offset);
+  // The heading error as the pulse difference that turns it away (e·b/c̄).
+  const double error_pulses = wrapAngle(wanted - p.yaw_rad) * n.wheelbase_m / c_mean;
+  heading_integral_ += error_pulses * dt;
+  const double steer = options_.heading_gain_duty_per_pulse * error_pulses +
+                       options_.heading_integral_duty_per_pulse_s * heading_integral_;
+  duties_ = {std::clamp(duty_mag_[0] - 0.5 * steer, 0.0, options_.max_duty),
+             std::clamp(duty_mag_[0] + 0.5 * steer, 0.0, options_.max_duty)};
+  return duties_;
+}
+
+double UmbmarkRun::progress() const {
+  if (done()) return 1.0;
+  const double runs = 2.0 * options_.runs_per_direction;
+  double part = 0;
+  if (phase_ == UmbmarkPhase::kClockwise || phase_ == UmbmarkPhase::kCounterClockwise) {
+    if (awaiting_error_) {
+      part = 1.0;  // the run is counted once its error is given
+    } else if (!awaiting_all_ && motion_ != Motion::kPause) {
+      part = (leg_ + (was_turning_ ? 0.75 : 0.0)) / 4.0;
+    }
+  }
+  return std::min(1.0, (runs_done_ + part) / runs);
+}
+
+std::string UmbmarkRun::describe() const {
+  std::string s = name(phase_);
+  if (phase_ == UmbmarkPhase::kClockwise || phase_ == UmbmarkPhase::kCounterClockwise) {
+    s += " run " + std::to_string(runInDirection()) + "/" +
+         std::to_string(options_.runs_per_direction);
+    if (awaiting_all_) {
+      s += ", all " + std::to_string(2 * options_.runs_per_direction) +
+           " squares driven, waiting for their return errors";
+    } else if (motion_ == Motion::kPause) {
+      s += " driven (computed end " + formatNumber(computedPose().x_m, 3) + ", " +
+           formatNumber(computedPose().y_m, 3) + " m), pausing before the next";
+    } else if (awaiting_error_) {
+      s += ", waiting for its return error (computed end " + formatNumber(computedPose().x_m, 3) +
+           ", " + formatNumber(computedPose().y_m, 3) + " m)";
+    } else {
+      s += std::string(was_turning_ ? ", turn " : ", leg ") + std::to_string(leg_ + 1) + "/4";
+    }
+  }
+  const auto last = [](const std::vector<ReturnError>& v) {
+    return v.empty() ? std::string()
+                     : " (" + formatNumber(v.back().x_m, 3) + ", " + formatNumber(v.back().y_m, 3) +
+                           ") m";
+  };
+  if (!cw_.empty()) s += ", cw errors " + std::to_string(cw_.size()) + last(cw_);
+  if (!ccw_.empty()) s += ", ccw errors " + std::to_string(ccw_.size()) + last(ccw_);
+  if (done()) {
+    s += ", Ed " + formatNumber(result_.Ed, 6) + ", Eb " + formatNumber(result_.Eb, 6) +
+         ", E_max,syst " + formatNumber(1000 * result_.E_max_syst_m, 4) + " mm";
+  }
+  if (failed()) s += ": " + failure_;
+  return s;
+}
+
+}  // namespace odometry
+}  // namespace autocal

@@ -1,0 +1,201 @@
+// See odometry_in_sim.h.
+#include "support/odometry_in_sim.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace test {
+
+namespace {
+
+constexpr double kControlDt = 0.02;
+
+double wallSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Commands reach the wheels one control cycle after the readings they came from.
+struct DelayedDuties {
+  std::deque<WheelDuties> pending;
+  void apply(sim::Simulation& simulation, const WheelDuties& d) {
+    pending.push_back(d);
+    simulation.setDuty(pending.front().left, pending.front().right);
+    if (pending.size() > 1) pending.pop_front();
+  }
+};
+
+sim::RobotConfig variant(double radius_left, double radius_right, double wheelbase,
+                         double gain_left, double gain_right, double deadband) {
+  sim::RobotConfig r =
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  r.wheel_radius_left = radius_left;
+  r.wheel_radius_right = radius_right;
+  r.wheelbase = wheelbase;
+  r.motor_gain_left = gain_left;
+  r.motor_gain_right = gain_right;
+  r.deadband = deadband;
+  return r;
+}
+
+}  // namespace
+
+void FloorBox::add(const sim::RobotConfig& robot, const Pose2D& pose) {
+  const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+  for (int i = 0; i < 4; ++i) {
+    const double fx = robot.chassis_offset_x_m + (i & 1 ? 0.5 : -0.5) * robot.chassis_length_m;
+    const double fy = (i & 2 ? 0.5 : -0.5) * robot.chassis_width_m;
+    const double x = pose.x_m + c * fx - s * fy, y = pose.y_m + s * fx + c * fy;
+    min_x_m = std::min(min_x_m, x), max_x_m = std::max(max_x_m, x);
+    min_y_m = std::min(min_y_m, y), max_y_m = std::max(max_y_m, y);
+  }
+}
+
+UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions& options,
+                     std::mt19937_64& rng, double max_sim_s) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  const sim::RobotConfig& robot = simulation.robot();
+  UahInSim out;
+  odometry::UahRun run(options);
+  const double t0 = simulation.time_s();
+  const double encoder_dt = 1.0 / robot.encoder_rate_hz,
+               range_dt = 1.0 / robot.range_sensor.rate_hz;
+  double next_encoder = t0, next_range = t0;
+  DelayedDuties delay;
+  Pose2D run_start;
+  bool was_driving = false;
+  try {
+    while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
+      const double t = simulation.time_s();
+      if (t >= next_encoder) {
+        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
+                        simulation.encoderTicks(sim::Side::kRight));
+        next_encoder += encoder_dt;
+      }
+      if (t >= next_range) {
+        run.addRange(t, simulation.measureRange(rng));
+        next_range += range_dt;
+      }
+      const bool driving =
+          run.experiment() == odometry::UahExperiment::kStraight && !run.needsStraightLength();
+      if (driving && !was_driving) run_start = simulation.pose();
+      was_driving = driving;
+      if (run.needsStraightLength()) {
+        const Pose2D p = simulation.pose();
+        run.setStraightLength(std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m));
+        was_driving = false;
+      }
+      delay.apply(simulation, run.update(t));
+      simulation.advance(kControlDt);
+      out.floor.add(robot, simulation.pose());
+    }
+  } catch (const Error& e) {
+    out.failure = e.what();
+  }
+  simulation.setDuty(0, 0);
+  out.done = run.done();
+  if (out.done) out.result = run.result();
+  out.sim_s = simulation.time_s() - t0;
+  out.wall_s = wallSince(wall0);
+  return out;
+}
+
+UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
+                             const odometry::UmbmarkRunOptions& options, double max_sim_s) {
+  const auto wall0 = std::chrono::steady_clock::now();
+  const sim::RobotConfig& robot = simulation.robot();
+  const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
+  UmbmarkInSim out;
+  odometry::UmbmarkRun run(options);
+  const double t0 = simulation.time_s();
+  const double encoder_dt = 1.0 / robot.encoder_rate_hz;
+  double next_encoder = t0;
+  DelayedDuties delay;
+  Pose2D run_start = simulation.pose();
+  bool was_moving = false;
+  try {
+    while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
+      const double t = simulation.time_s();
+      if (t >= next_encoder) {
+        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
+                        simulation.encoderTicks(sim::Side::kRight));
+        next_encoder += encoder_dt;
+      }
+      if (run.needsReturnError()) {
+        // The run's end relative to its start, in the start's frame, minus the computed end.
+        const Pose2D p = simulation.pose();
+        const double dx = p.x_m - run_start.x_m, dy = p.y_m - run_start.y_m;
+        const double c = std::cos(run_start.yaw_rad), s = std::sin(run_start.yaw_rad);
+        const Pose2D computed = run.computedPose();
+        const odometry::ReturnError e{c * dx + s * dy - computed.x_m,
+                                      -s * dx + c * dy - computed.y_m};
+        if (trace) {
+          std::fprintf(stderr, "t %.1f %s: error (%.4f, %.4f) m, computed (%.4f, %.4f)\n", t,
+                       run.describe().c_str(), e.x_m, e.y_m, computed.x_m, computed.y_m);
+        }
+        run.setReturnError(e);
+        was_moving = false;
+      }
+      const WheelDuties d = run.update(t);
+      // A run starts at its first duties; the robot still stands where the last one stopped.
+      const bool moving = run.phase() == odometry::UmbmarkPhase::kClockwise ||
+                          run.phase() == odometry::UmbmarkPhase::kCounterClockwise;
+      if (moving && !was_moving && (d.left != 0 || d.right != 0)) {
+        run_start = simulation.pose();
+        was_moving = true;
+      }
+      delay.apply(simulation, d);
+      simulation.advance(kControlDt);
+      out.floor.add(robot, simulation.pose());
+    }
+  } catch (const Error& e) {
+    out.failure = e.what();
+  }
+  simulation.setDuty(0, 0);
+  out.done = run.done();
+  if (out.done) out.result = run.result();
+  out.cw = run.clockwiseErrors();
+  out.ccw = run.counterClockwiseErrors();
+  out.sim_s = simulation.time_s() - t0;
+  out.wall_s = wallSince(wall0);
+  return out;
+}
+
+std::vector<OdometryTestRobot> odometryTestRobots() {
+  std::vector<OdometryTestRobot> robots;
+  robots.push_back(
+      {"default (robot.yaml: r_R +1.3 %, b 0.102)",
+       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"), 0.0318,
+       0.1});
+  robots.push_back(
+      {"left wheel +2 %, b 0.109", variant(0.0325, 0.03185, 0.109, 0.95, 1.0, 0.12), 0.0318, 0.1});
+  robots.push_back(
+      {"right wheel +1.9 %, b 0.100", variant(0.0314, 0.0320, 0.100, 1.0, 0.9, 0.05), 0.0318, 0.1});
+  // Nothing tied to the Duckiebot: wheelbase 0.3 m, radius 0.05 m, a bigger chassis.
+  sim::RobotConfig large = variant(0.0500, 0.0504, 0.300, 1.0, 0.97, 0.08);
+  large.chassis_length_m = 0.40;
+  large.chassis_width_m = 0.36;
+  large.chassis_offset_x_m = -0.08;
+  large.caster_x_m = -0.22;
+  large.mass_kg = 4.0;
+  large.range_sensor.x_m = 0.12;
+  robots.push_back({"large (r 0.05, b 0.30)", large, 0.05, 0.29});
+  return robots;
+}
+
+double trueEd(const sim::RobotConfig& robot) {
+  return robot.wheel_radius_right / robot.wheel_radius_left;
+}
+
+double trueEb(const sim::RobotConfig& robot, double nominal_radius_m, double nominal_wheelbase_m) {
+  const double mean_radius = 0.5 * (robot.wheel_radius_left + robot.wheel_radius_right);
+  return (robot.wheelbase / mean_radius) / (nominal_wheelbase_m / nominal_radius_m);
+}
+
+}  // namespace test
+}  // namespace autocal

@@ -34,6 +34,8 @@ void SimNodeOptions::validate() const {
   check(max_blur_samples >= 1 && max_blur_samples <= 64, "max_blur_samples", "must be 1..64");
   check(seed >= 0, "seed", "must be >= 0");
   check(duration_s >= 0, "duration_s", "must be >= 0 (0: run until shutdown)");
+  check(std::isfinite(lockstep_s) && lockstep_s >= 0, "lockstep_s", "must be >= 0 (0: off)");
+  check(std::isfinite(lockstep_wait_s) && lockstep_wait_s > 0, "lockstep_wait_s", "must be > 0");
 }
 
 SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
@@ -53,6 +55,8 @@ SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHand
   p.get("world_frame", o.world_frame);
   p.get("duration_s", o.duration_s);
   p.get("wait_for_controller", o.wait_for_controller);
+  p.get("lockstep_s", o.lockstep_s);
+  p.get("lockstep_wait_s", o.lockstep_wait_s);
   std::string ns = nh.getNamespace();
   ns.erase(0, ns.find_first_not_of('/'));
   o.vehicle = ns.empty() ? "robot" : ns;
@@ -91,8 +95,10 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   // not lose them.
   const int small_queue = 1000;
   clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", small_queue);
-  left_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", small_queue);
-  right_tick_pub_ = nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", small_queue);
+  left_tick_pub_ =
+      nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", small_queue);
+  right_tick_pub_ =
+      nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", small_queue);
   range_pub_ = nh_.advertise<sensor_msgs::Range>("front_center_tof_driver_node/range", small_queue);
   compressed_pub_ = nh_.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 5);
   image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 5);
@@ -104,8 +110,9 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   ROS_INFO_STREAM("sim: robot " << options_.robot_config << ", world " << options_.world_config
                                 << ", seed " << options_.seed << ", real_time_factor "
-                                << options_.real_time_factor << ", physics " << options_.physics_rate_hz
-                                << " Hz, camera " << (options_.camera_enabled ? "on" : "off"));
+                                << options_.real_time_factor << ", physics "
+                                << options_.physics_rate_hz << " Hz, camera "
+                                << (options_.camera_enabled ? "on" : "off"));
 }
 
 SimNode::~SimNode() = default;
@@ -114,7 +121,8 @@ void SimNode::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
   const WheelDuties duties = ros_layer::fromWheelsCmd(*msg);
   double left = duties.left, right = duties.right;
   if (!std::isfinite(left) || !std::isfinite(right)) {
-    ROS_WARN_THROTTLE(1.0, "sim: dropped a wheels_cmd with a non-finite duty (%f, %f)", left, right);
+    ROS_WARN_THROTTLE(1.0, "sim: dropped a wheels_cmd with a non-finite duty (%f, %f)", left,
+                      right);
     return;
   }
   if (std::abs(left) > 1 || std::abs(right) > 1) {
@@ -125,6 +133,29 @@ void SimNode::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
   sim_->setDuty(left, right);
   last_cmd_s_ = sim_->time_s();
   watchdog_stopped_ = false;
+  have_cmd_ = true;
+  lockstep_released_ = false;
+}
+
+void SimNode::waitForController() {
+  // Lockstep (SimNodeOptions::lockstep_s): wait for the next wheels_cmd, or release.
+  if (options_.lockstep_s <= 0 || !have_cmd_ || lockstep_released_ ||
+      sim_->time_s() - last_cmd_s_ <= options_.lockstep_s)
+    return;
+  const double last = last_cmd_s_;
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(options_.lockstep_wait_s);
+  publishClock();  // the controller's timers run on this clock
+  while (ros_layer::ok() && last_cmd_s_ == last) {
+    if (ros::WallTime::now() > give_up) {
+      lockstep_released_ = true;
+      ROS_INFO_THROTTLE(10.0,
+                        "sim: no wheels_cmd for %.2f s of wall time: running free until the next",
+                        options_.lockstep_wait_s);
+      return;
+    }
+    ros::WallDuration(0.0005).sleep();
+    ros::spinOnce();
+  }
 }
 
 void SimNode::publishClock() {
@@ -135,10 +166,12 @@ void SimNode::publishClock() {
 
 void SimNode::publishEncoders() {
   for (Side side : {Side::kLeft, Side::kRight}) {
-    const EncoderReading reading{sim_->time_s(), sim_->encoderTicks(side), robot_.encoder_resolution};
+    const EncoderReading reading{sim_->time_s(), sim_->encoderTicks(side),
+                                 robot_.encoder_resolution};
     const std::string frame =
         options_.vehicle + (side == Side::kLeft ? "/left_wheel_axis" : "/right_wheel_axis");
-    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_).publish(ros_layer::toEncoderMsg(reading, frame));
+    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_)
+        .publish(ros_layer::toEncoderMsg(reading, frame));
   }
 }
 
@@ -166,7 +199,8 @@ void SimNode::publishCamera(double capture_s) {
   camera_info_pub_.publish(info);
   if (!want_compressed && !want_raw) return;  // nobody looks: skip the rendering
 
-  const cv::Mat image = renderer_->render(sim_->exposurePoses(capture_s, options_.max_blur_samples), camera_rng_);
+  const cv::Mat image =
+      renderer_->render(sim_->exposurePoses(capture_s, options_.max_blur_samples), camera_rng_);
 
   if (want_compressed) {
     sensor_msgs::CompressedImage msg;
@@ -209,12 +243,15 @@ void SimNode::publishGroundTruth() {
 void SimNode::publishStatus(double achieved_rtf) {
   const double progress = options_.duration_s > 0 ? sim_->time_s() / options_.duration_s : -1.0;
   char text[160];
-  std::snprintf(text, sizeof(text), "simulating: %.1f s, real-time factor %.2f%s", sim_->time_s(), achieved_rtf,
-                watchdog_stopped_ ? ", wheels stopped (no wheels_cmd)" : "");
+  std::snprintf(text, sizeof(text), "simulating: %.1f s, real-time factor %.2f%s", sim_->time_s(),
+                achieved_rtf, watchdog_stopped_ ? ", wheels stopped (no wheels_cmd)" : "");
   const Pose2 p = sim_->pose();
   status_.running("sim", progress, text,
-                  {{"sim_time_s", sim_->time_s()}, {"real_time_factor", achieved_rtf}, {"x_m", p.x_m},
-                   {"y_m", p.y_m}, {"yaw_rad", p.yaw_rad}});
+                  {{"sim_time_s", sim_->time_s()},
+                   {"real_time_factor", achieved_rtf},
+                   {"x_m", p.x_m},
+                   {"y_m", p.y_m},
+                   {"yaw_rad", p.yaw_rad}});
 }
 
 void SimNode::run() {
@@ -250,13 +287,15 @@ void SimNode::run() {
   const ros::WallTime run_start = ros::WallTime::now();
   ros::WallTime rtf_mark = run_start;
   while (ros_layer::ok()) {
+    waitForController();
     sim_->step();
     const double t = sim_->time_s();
     if (due(clock, t)) publishClock();
     if (!watchdog_stopped_ && t - last_cmd_s_ > options_.wheels_cmd_timeout_s) {
       sim_->setDuty(0.0, 0.0);
       watchdog_stopped_ = true;
-      ROS_WARN_THROTTLE(5.0, "sim: no wheels_cmd for %.2f s: wheels stopped", options_.wheels_cmd_timeout_s);
+      ROS_WARN_THROTTLE(5.0, "sim: no wheels_cmd for %.2f s: wheels stopped",
+                        options_.wheels_cmd_timeout_s);
     }
     if (due(encoders, t)) publishEncoders();
     if (due(range, t)) publishRange();

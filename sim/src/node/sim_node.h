@@ -41,6 +41,14 @@ struct SimNodeOptions {
   /// Hold simulated time at 0 until some node publishes on wheels_cmd (a controller or a test is
   /// connected): what a real_time_factor 0 run needs so that nobody misses the start.
   bool wait_for_controller = false;
+  /// Lockstep with the controller [s of sim time; 0: off]: once a wheels_cmd has arrived, time
+  /// does not run more than this past the last one; the simulator waits for the next (up to
+  /// lockstep_wait_s of wall time, then it runs free until a command comes again: a controller
+  /// that ended or died does not stall the world). At real_time_factor 0 this makes "as fast as
+  /// possible" as fast as the controller keeps up, instead of a clock the controller lags behind
+  /// by a varying amount (a node without a camera to wait for could fall seconds behind).
+  double lockstep_s = 0.0;
+  double lockstep_wait_s = 3.0;
   /// Throws ConfigError naming the bad "~key".
   void validate() const;
 };
@@ -60,6 +68,7 @@ class SimNode {
  private:
   void onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
   void publishClock();
+  void waitForController();
   void publishEncoders();
   void publishRange();
   void publishCamera(double capture_s);
@@ -75,13 +84,14 @@ class SimNode {
   std::mt19937_64 camera_rng_, range_rng_;
 
   ros::Subscriber wheels_cmd_sub_;
-  ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_, compressed_pub_,
-      camera_info_pub_, ground_truth_pub_;
+  ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_,
+      compressed_pub_, camera_info_pub_, ground_truth_pub_;
   ros_layer::StatusPublisher status_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
 
   double last_cmd_s_ = -1e9;
   bool watchdog_stopped_ = true;
+  bool have_cmd_ = false, lockstep_released_ = false;
   std::string camera_frame_, range_frame_, ground_truth_frame_;
 };
 

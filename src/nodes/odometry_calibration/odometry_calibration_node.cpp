@@ -32,6 +32,11 @@ void OdometryCalibrationNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(method == "uah" || method == "umbmark", "method",
                         "must be uah or umbmark, got '" + method + "'");
+  ros_layer::checkParam(after_stage.empty() || after_stage == "camera" || after_stage == "wheels",
+                        "after_stage",
+                        "must be empty, camera or wheels, got '" + after_stage + "'");
+  ros_layer::checkParam(std::isfinite(after_stage_wait_s) && after_stage_wait_s >= 0,
+                        "after_stage_wait_s", "must be >= 0 [s]");
   UahRunOptions r = run;
   r.nominal = DiffDriveParams::fromWheel(2 * wheel_radius_m, 100, wheelbase_m);  // set later
   ros_layer::validateParams(r);
@@ -55,6 +60,8 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("connect_wait_s", o.connect_wait_s);
   p.get("status_rate_hz", o.status_rate_hz);
   p.get("method", o.method);
+  p.get("after_stage", o.after_stage);
+  p.get("after_stage_wait_s", o.after_stage_wait_s);
   // Only the chosen method's keys are read (and echoed); the rest keep their defaults.
   if (o.method == "umbmark") {
     UmbmarkRunOptions& u = o.umbmark;
@@ -171,6 +178,13 @@ void OdometryCalibrationNode::publishStatus(bool force) {
 }
 
 void OdometryCalibrationNode::run() {
+  if (!options_.after_stage.empty()) {
+    status_.running("odometry/wait", 0, "waiting for the " + options_.after_stage + " stage");
+    ROS_INFO("odometry_calibration_node: waiting for the %s stage's DONE on %s",
+             options_.after_stage.c_str(), status_.topic().c_str());
+    ros_layer::waitForStage(nh_, options_.after_stage, options_.after_stage_wait_s);  // throws
+    if (!ros_layer::ok()) return;
+  }
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {

@@ -53,6 +53,11 @@ struct OdometryCalibrationNodeOptions {
   double status_rate_hz = 2.0;
   /// "uah" (paper 002 §2) or "umbmark" (Borenstein & Feng).
   std::string method = "uah";
+  /// In a calibration run: start only after this stage's DONE on calibration/status (e.g.
+  /// "wheels"; empty: at once), and fail on its FAILED or after after_stage_wait_s [wall s, 0:
+  /// no limit].
+  std::string after_stage;
+  double after_stage_wait_s = 0;
   UahRunOptions run;
   /// UMBmark: nominal is set at the start like run.nominal's.
   UmbmarkRunOptions umbmark;

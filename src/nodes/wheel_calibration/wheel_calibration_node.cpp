@@ -94,45 +94,24 @@ WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle p
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   detections_pub_ =
       nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);
-  if (options_.intrinsics_file.empty()) {
-    status_sub_ = nh_.subscribe("calibration/status", 10, &WheelCalibrationNode::onStatus, this);
-  }
   status_.running("wheels/wait", 0,
                   options_.intrinsics_file.empty() ? "waiting for the camera stage"
                                                    : "waiting for the camera and the encoders");
 }
 
-void WheelCalibrationNode::onStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
-  if (msg->phase.rfind("camera/", 0) != 0) return;  // our own and other stages' messages
-  if (msg->state == autocal::CalibrationStatus::STATE_FAILED) {
-    camera_failure_ = msg->failure_reason.empty() ? msg->text : msg->failure_reason;
-  } else if (msg->state == autocal::CalibrationStatus::STATE_DONE &&
-             msg->text.rfind("wrote ", 0) == 0) {
-    camera_file_ = msg->text.substr(6);
-    camera_min_duty_left_ = figure(*msg, "min_duty_left_forward");
-    camera_min_duty_right_ = figure(*msg, "min_duty_right_forward");
-  }
-}
-
 void WheelCalibrationNode::waitForCameraStage() {
   if (!options_.intrinsics_file.empty()) return;
-  const ros::WallTime start = ros::WallTime::now();
   ROS_INFO("wheel_calibration_node: waiting for the camera stage's DONE on %s",
            status_.topic().c_str());
-  while (ros_layer::ok() && camera_file_.empty()) {
-    ros::spinOnce();
-    if (!camera_failure_.empty())
-      throw CalibrationError("the camera stage failed: " + camera_failure_);
-    if (options_.camera_stage_wait_s > 0 &&
-        (ros::WallTime::now() - start).toSec() > options_.camera_stage_wait_s) {
-      throw CalibrationError("no DONE from the camera stage within ~camera_stage_wait_s " +
-                             formatNumber(options_.camera_stage_wait_s, 4) +
-                             " s, and no ~intrinsics_file");
-    }
-    ros::WallDuration(0.02).sleep();
-  }
-  options_.intrinsics_file = camera_file_;
-  status_sub_.shutdown();
+  const autocal::CalibrationStatus done =
+      ros_layer::waitForStage(nh_, "camera", options_.camera_stage_wait_s);  // throws
+  if (!ros_layer::ok()) return;
+  if (done.text.rfind("wrote ", 0) != 0)
+    throw CalibrationError("the camera stage's DONE names no file (\"" + done.text +
+                           "\"), and no ~intrinsics_file");
+  options_.intrinsics_file = done.text.substr(6);
+  camera_min_duty_left_ = figure(done, "min_duty_left_forward");
+  camera_min_duty_right_ = figure(done, "min_duty_right_forward");
 }
 
 void WheelCalibrationNode::connect() {

@@ -57,7 +57,6 @@ class WheelCalibrationNode {
   void run();
 
  private:
-  void onStatus(const autocal::CalibrationStatus::ConstPtr& msg);
   void waitForCameraStage();
   void connect();
   void publishStatus(bool force);
@@ -71,11 +70,8 @@ class WheelCalibrationNode {
   ros_layer::WheelsCommander wheels_;
   std::unique_ptr<ros_layer::FrameInput> frames_;
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
-  ros::Subscriber status_sub_;
   ros::Publisher detections_pub_;
-  std::string camera_file_;  ///< from the camera stage's DONE
   double camera_min_duty_left_ = -1, camera_min_duty_right_ = -1;
-  std::string camera_failure_;
   ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
   std::exception_ptr error_;
   ros::Time last_status_;

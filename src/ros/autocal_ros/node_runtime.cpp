@@ -1,5 +1,6 @@
 #include "autocal_ros/node_runtime.h"
 
+#include <ros/callback_queue.h>
 #include <ros/master.h>
 #include <ros/network.h>
 #include <xmlrpcpp/XmlRpcClient.h>
@@ -10,6 +11,7 @@
 #include <csignal>
 
 #include "autocal/errors.h"
+#include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace autocal {
@@ -128,6 +130,36 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   }
   ros::shutdown();
   return toInt(ExitCode::kOk);
+}
+
+CalibrationStatus waitForStage(const ros::NodeHandle& nh, const std::string& stage,
+                               double timeout_s) {
+  ros::NodeHandle wait_nh(nh);
+  ros::CallbackQueue queue;
+  wait_nh.setCallbackQueue(&queue);
+  CalibrationStatus done;
+  std::string failure;
+  bool have_done = false;
+  const ros::Subscriber sub = wait_nh.subscribe<CalibrationStatus>(
+      "calibration/status", 20, [&](const CalibrationStatus::ConstPtr& m) {
+        if (m->phase.rfind(stage + "/", 0) != 0) return;
+        if (m->state == CalibrationStatus::STATE_FAILED) {
+          failure = m->failure_reason.empty() ? m->text : m->failure_reason;
+        } else if (m->state == CalibrationStatus::STATE_DONE) {
+          done = *m;
+          have_done = true;
+        }
+      });
+  const ros::WallTime start = ros::WallTime::now();
+  while (ok() && !have_done) {
+    queue.callAvailable(ros::WallDuration(0.05));
+    if (!failure.empty()) throw CalibrationError("the " + stage + " stage failed: " + failure);
+    if (timeout_s > 0 && (ros::WallTime::now() - start).toSec() > timeout_s) {
+      throw CalibrationError("no DONE from the " + stage + " stage within " +
+                             formatNumber(timeout_s, 4) + " s");
+    }
+  }
+  return have_done ? done : CalibrationStatus();
 }
 
 int nodePid(const std::string& name) {

@@ -95,6 +95,13 @@ bool runStageLoop(Stage& stage, Done done, double rate_hz, const std::exception_
 /// True after SIGINT or SIGTERM.
 bool interrupted();
 
+/// Waits on `nh`'s calibration/status for the stage `stage` (e.g. "wheels") to publish DONE and
+/// returns that message; throws CalibrationError when the stage (or run_report_node in its name,
+/// "<stage>/died") publishes FAILED, or when `timeout_s` wall seconds pass (0: no limit). Returns
+/// an empty message when interrupted. Its own callback queue: the caller's subscriptions wait.
+CalibrationStatus waitForStage(const ros::NodeHandle& nh, const std::string& stage,
+                               double timeout_s);
+
 /// The process id of the ROS node `name` (e.g. "/autobot/wheel_calibration_node"), asked over its
 /// XML-RPC port as `rosnode ping` does; -1 when the master does not know it or it does not answer
 /// (a killed node stays registered, but its port is closed).

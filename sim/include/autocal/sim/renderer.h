@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <random>
@@ -86,6 +87,15 @@ class Renderer {
   std::vector<uint16_t> corner_bins_;
   std::vector<uint8_t> corner_valid_;
   std::vector<uint8_t> block4_valid_;  ///< per 4 x 4 pixel block: all its corners are valid rays
+  /// A block of 8 x 8 or 16 x 16 pixels that may show bare floor (see renderPose).
+  struct FloorBlock {
+    bool ok = false;      ///< all its corner rays are valid and point down, over a short arc
+    float max_reach = 0;  ///< largest horizontal reach of a corner ray's floor hit per m of height
+    float min_distance =
+        std::numeric_limits<float>::infinity();  ///< nearest floor hit per m of height
+    int first_bin = 0, bin_count = 0;            ///< the azimuth bins its rays span
+  };
+  std::vector<FloorBlock> floor_blocks_[2];  ///< 8 x 8 and 16 x 16 blocks, row-major
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;

@@ -41,6 +41,29 @@ const Rgb kStand = rgb(70, 70, 72);
 const Rgb kLaneWhite = rgb(232, 232, 232);
 const Rgb kLaneYellow = rgb(235, 200, 40);
 
+/// Adds to an n x n block of pixels at (u, v) of a BGR float image `width` pixels wide the bilinear
+/// blend of its outer corners' colours (a top left, b top right, e bottom left, f bottom right).
+void blendBlock(float* acc, int width, int u, int v, int n, const Rgb& ca, const Rgb& cb,
+                const Rgb& ce, const Rgb& cf) {
+  const float inv = 1.0f / static_cast<float>(n);
+  for (int j = 0; j < n; ++j) {
+    const float y = (static_cast<float>(j) + 0.5f) * inv;
+    // The row's ends, then steps along it.
+    const float lb = ca.b + (ce.b - ca.b) * y, lg = ca.g + (ce.g - ca.g) * y,
+                lr = ca.r + (ce.r - ca.r) * y;
+    const float db = (cb.b + (cf.b - cb.b) * y - lb) * inv,
+                dg = (cb.g + (cf.g - cb.g) * y - lg) * inv,
+                dr = (cb.r + (cf.r - cb.r) * y - lr) * inv;
+    float* out = acc + 3 * (static_cast<size_t>(v + j) * width + u);
+    for (int i = 0; i < n; ++i, out += 3) {
+      const float x = static_cast<float>(i) + 0.5f;
+      out[0] += lb + db * x;
+      out[1] += lg + dg * x;
+      out[2] += lr + dr * x;
+    }
+  }
+}
+
 uint32_t hash3(uint32_t a, int32_t x, int32_t y) {
   uint32_t h = a * 0x9E3779B1u ^ static_cast<uint32_t>(x) * 0x85EBCA77u ^
                static_cast<uint32_t>(y) * 0xC2B2AE3Du;
@@ -711,7 +734,7 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
 
 Renderer::~Renderer() = default;
 
-void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
+void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, float* acc) const {
   const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
   scene_->prepare(origin, pose.yaw_rad);
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -822,22 +845,21 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   };
   // Fills an n x n block of pixels at (u, v) with the bilinear blend of its outer corners.
   const auto blend = [&](int u, int v, int n, size_t a, size_t b, size_t e, size_t f) {
-    const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
-    const float inv = 1.0f / static_cast<float>(n);
-    for (int j = 0; j < n; ++j) {
-      const float y = (static_cast<float>(j) + 0.5f) * inv;
-      // The row's ends, then steps along it.
-      const float lb = ca.b + (ce.b - ca.b) * y, lg = ca.g + (ce.g - ca.g) * y, lr = ca.r + (ce.r - ca.r) * y;
-      const float db = (cb.b + (cf.b - cb.b) * y - lb) * inv, dg = (cb.g + (cf.g - cb.g) * y - lg) * inv,
-                  dr = (cb.r + (cf.r - cb.r) * y - lr) * inv;
-      float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
-      for (int i = 0; i < n; ++i, out += 3) {
-        const float x = static_cast<float>(i) + 0.5f;
-        out[0] += lb + db * x;
-        out[1] += lg + dg * x;
-        out[2] += lr + dr * x;
-      }
+    blendBlock(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
+  };
+  // A blurred frame's 4 x 4 blends: their corners' colours are summed over the poses and blended
+  // once in render() (the blend is linear), not written into the image at every pose.
+  const auto sumBlock4 = [&](int u, int v, const Rgb& ca, const Rgb& cb, const Rgb& ce,
+                             const Rgb& cf) {
+    const size_t k = static_cast<size_t>((v / 4) * (width_ / 4) + u / 4);
+    Rgb* sum = &block_sums_[4 * k];
+    const Rgb* corners[4] = {&ca, &cb, &ce, &cf};
+    for (int c = 0; c < 4; ++c) {
+      sum[c].b += corners[c]->b;
+      sum[c].g += corners[c]->g;
+      sum[c].r += corners[c]->r;
     }
+    block_summed_[k] = 1;
   };
   const auto block2 = [&](int u, int v) {
     const size_t a = static_cast<size_t>(v * W + u), b = a + 2, e = a + 2 * W, f = e + 2;
@@ -867,7 +889,11 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
     for (const size_t i : {a, b, e, f}) traceCorner(i);
     if (block4_valid_[static_cast<size_t>((v / 4) * blocks_per_row + u / 4)] &&
         smoothCorners(a, b, e, f)) {
-      blend(u, v, 4, a, b, e, f);
+      if (sum_blocks) {
+        sumBlock4(u, v, color[a], color[b], color[e], color[f]);
+      } else {
+        blend(u, v, 4, a, b, e, f);
+      }
       return;
     }
     block2(u, v);
@@ -913,6 +939,12 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
       return false;
     }
     nearest_m_ = std::min(nearest_m_, height_m * block.min_distance);
+    if (sum_blocks) {
+      for (int j = 0; j < n; j += 4) {
+        for (int i = 0; i < n; i += 4) sumBlock4(u + i, v + j, ca, ca, ca, ca);
+      }
+      return true;
+    }
     for (int j = 0; j < n; ++j) {
       float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
       for (int i = 0; i < n; ++i, out += 3) {
@@ -943,7 +975,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
 
 cv::Mat Renderer::renderExact(const Pose2& pose) const {
   cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  renderPose(pose, true, acc.ptr<float>());
+  renderPose(pose, true, false, acc.ptr<float>());
   return acc;
 }
 
@@ -969,7 +1001,23 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
   } else {
     acc.create(height_, width_, CV_32FC3);
     acc.setTo(cv::Scalar::all(0));
-    for (const Pose2& p : poses) renderPose(p, still, acc.ptr<float>());
+    // A blurred frame sums its poses' 4 x 4 blends per block and blends each block once.
+    const bool sum_blocks = !still && width_ % 16 == 0 && height_ % 16 == 0;
+    if (sum_blocks) {
+      block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
+      block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);
+    }
+    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, acc.ptr<float>());
+    if (sum_blocks) {
+      for (int v = 0; v < height_; v += 4) {
+        for (int u = 0; u < width_; u += 4) {
+          const size_t k = static_cast<size_t>((v / 4) * (width_ / 4) + u / 4);
+          if (!block_summed_[k]) continue;
+          const Rgb* sum = &block_sums_[4 * k];
+          blendBlock(acc.ptr<float>(), width_, u, v, 4, sum[0], sum[1], sum[2], sum[3]);
+        }
+      }
+    }
     if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
     if (still) {
       ++still_rendered_;

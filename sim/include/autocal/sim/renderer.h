@@ -75,7 +75,10 @@ class Renderer {
   double imageMotionBoundPx(const Pose2& a, const Pose2& b, double nearest_m) const;
 
  private:
-  void renderPose(const Pose2& pose, bool antialias, float* accumulate) const;
+  /// Adds the image of one pose to `accumulate`; with sum_blocks (a blurred frame, image sides
+  /// multiples of 16), the 4 x 4 blocks it blends add their corners' colours to block_sums_
+  /// instead.
+  void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, float* accumulate) const;
 
   CameraConfig config_;
   CameraModel camera_;
@@ -100,6 +103,9 @@ class Renderer {
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;
   mutable std::vector<Eigen::Vector2f> corner_floor_xy_;  // where a marked-floor corner's ray lands
+  mutable std::vector<detail::Rgb>
+      block_sums_;                             // blurred frame: per 4 x 4 block, its corners' sums
+  mutable std::vector<uint8_t> block_summed_;  // ... and whether any pose blended it
   mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
   mutable uint32_t frame_ = 0;
   std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2

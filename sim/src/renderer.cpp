@@ -659,7 +659,7 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
     const int n = k == 0 ? 8 : 16;
     std::vector<FloorBlock>& table = floor_blocks_[k];
     table.clear();
-    if (width_ % 16 != 0 || height_ % 16 != 0) continue;
+    if (!options_.block_fills || width_ % 16 != 0 || height_ % 16 != 0) continue;
     table.resize(static_cast<size_t>((width_ / n) * (height_ / n)));
     for (int bv = 0; bv < height_ / n; ++bv) {
       for (int bu = 0; bu < width_ / n; ++bu) {
@@ -1002,7 +1002,7 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
     acc.create(height_, width_, CV_32FC3);
     acc.setTo(cv::Scalar::all(0));
     // A blurred frame sums its poses' 4 x 4 blends per block and blends each block once.
-    const bool sum_blocks = !still && width_ % 16 == 0 && height_ % 16 == 0;
+    const bool sum_blocks = options_.block_fills && !still && width_ % 16 == 0 && height_ % 16 == 0;
     if (sum_blocks) {
       block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
       block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);

@@ -38,6 +38,10 @@ struct RenderOptions {
   /// amounts for about 0.6 s before it stops exactly, and 0.01 px is far below the renderer's
   /// accuracy (corners within 0.15 px) and the noise.
   double still_reuse_px = 0.01;
+  /// Blocks of bare floor filled 16 x 16 or 8 x 8 pixels at once, and a blurred frame's 4 x 4
+  /// blends summed over its poses and blended once (the same image, up to float rounding in blurred
+  /// frames). False: the renderer as it was before (for the benchmark's side-by-side).
+  bool block_fills = true;
 };
 
 class Scene;

@@ -1027,10 +1027,15 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
   }
   const size_t n = static_cast<size_t>(width_) * height_ * 3;
   const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
+  // Noise added, then rounded and saturated to 0..255, row by row through a one-row buffer that
+  // stays in the cache (an image-sized float buffer in between cost memory traffic: a large part
+  // of a frame's time is moving image-sized buffers).
   const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
-  cv::scaleAdd(noise, options_.noise_sigma, acc, noisy_);
-  cv::Mat out;
-  noisy_.convertTo(out, CV_8UC3);  // rounds and saturates to 0..255
+  cv::Mat out(height_, width_, CV_8UC3);
+  for (int v = 0; v < height_; ++v) {
+    cv::scaleAdd(noise.row(v), options_.noise_sigma, acc.row(v), noisy_row_);
+    noisy_row_.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255
+  }
   return out;
 }
 

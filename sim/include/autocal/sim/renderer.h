@@ -120,7 +120,7 @@ class Renderer {
   mutable Pose2 still_pose_;
   mutable double still_nearest_m_ = 0;
   mutable double nearest_m_ = 0;
-  mutable cv::Mat accumulator_, noisy_;  ///< per-frame buffers, kept between frames  ///< nearest surface hit by the corners traced in a frame [m]
+  mutable cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
   mutable uint64_t still_rendered_ = 0, still_reused_ = 0;
 };
 

@@ -41,8 +41,10 @@ const Rgb kStand = rgb(70, 70, 72);
 const Rgb kLaneWhite = rgb(232, 232, 232);
 const Rgb kLaneYellow = rgb(235, 200, 40);
 
-/// Adds to an n x n block of pixels at (u, v) of a BGR float image `width` pixels wide the bilinear
-/// blend of its outer corners' colours (a top left, b top right, e bottom left, f bottom right).
+/// Adds to (kStore: writes into) an n x n block of pixels at (u, v) of a BGR float image `width`
+/// pixels wide the bilinear blend of its outer corners' colours (a top left, b top right, e bottom
+/// left, f bottom right).
+template <bool kStore>
 void blendBlock(float* acc, int width, int u, int v, int n, const Rgb& ca, const Rgb& cb,
                 const Rgb& ce, const Rgb& cf) {
   const float inv = 1.0f / static_cast<float>(n);
@@ -57,9 +59,15 @@ void blendBlock(float* acc, int width, int u, int v, int n, const Rgb& ca, const
     float* out = acc + 3 * (static_cast<size_t>(v + j) * width + u);
     for (int i = 0; i < n; ++i, out += 3) {
       const float x = static_cast<float>(i) + 0.5f;
-      out[0] += lb + db * x;
-      out[1] += lg + dg * x;
-      out[2] += lr + dr * x;
+      if (kStore) {
+        out[0] = lb + db * x;
+        out[1] = lg + dg * x;
+        out[2] = lr + dr * x;
+      } else {
+        out[0] += lb + db * x;
+        out[1] += lg + dg * x;
+        out[2] += lr + dr * x;
+      }
     }
   }
 }
@@ -734,7 +742,8 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
 
 Renderer::~Renderer() = default;
 
-void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, float* acc) const {
+void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
+                          float* acc) const {
   const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
   scene_->prepare(origin, pose.yaw_rad);
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -771,10 +780,27 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
   const float inv_samples = 1.0f / static_cast<float>(sample_offsets_.size());
   // One pixel from its four (traced) corners: their mean where they agree, else the mean of
   // sample rays spread over the pixel's area.
+  // A pixel's value: added to the image (blurred frames), or written into it (store: a still frame,
+  // whose buffer then needs no clearing).
+  const auto put = [store](float* out, float b, float g, float r) {
+    if (store) {
+      out[0] = b;
+      out[1] = g;
+      out[2] = r;
+    } else {
+      out[0] += b;
+      out[1] += g;
+      out[2] += r;
+    }
+  };
   auto shadePixel = [&](int u, int v) {
     const size_t i00 = static_cast<size_t>(v * W + u), i10 = i00 + 1, i01 = i00 + W, i11 = i01 + 1;
     float* out = acc + 3 * (static_cast<size_t>(v) * width_ + u);
-    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 || id[i11] < 0) return;  // outside the lens model
+    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 ||
+        id[i11] < 0) {  // outside the lens model: black
+      if (store) out[0] = out[1] = out[2] = 0;
+      return;
+    }
     const Rgb &a = color[i00], &b = color[i10], &e = color[i01], &f = color[i11];
     const int id00 = id[i00] & ~kMarked;
     bool alike = id00 == (id[i10] & ~kMarked) && id00 == (id[i01] & ~kMarked) && id00 == (id[i11] & ~kMarked);
@@ -784,9 +810,8 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
               std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
     }
     if (alike || !antialias || sample_offsets_.size() <= 1) {
-      out[0] += 0.25f * (a.b + b.b + e.b + f.b);
-      out[1] += 0.25f * (a.g + b.g + e.g + f.g);
-      out[2] += 0.25f * (a.r + b.r + e.r + f.r);
+      put(out, 0.25f * (a.b + b.b + e.b + f.b), 0.25f * (a.g + b.g + e.g + f.g),
+          0.25f * (a.r + b.r + e.r + f.r));
       return;
     }
     // An edge crosses the pixel: integrate its area with sample rays, each interpolated between
@@ -806,9 +831,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
       sg += col.g;
       sr += col.r;
     }
-    out[0] += sb * inv_samples;
-    out[1] += sg * inv_samples;
-    out[2] += sr * inv_samples;
+    put(out, sb * inv_samples, sg * inv_samples, sr * inv_samples);
   };
 
   if (width_ % 2 != 0 || height_ % 2 != 0) {
@@ -845,7 +868,11 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
   };
   // Fills an n x n block of pixels at (u, v) with the bilinear blend of its outer corners.
   const auto blend = [&](int u, int v, int n, size_t a, size_t b, size_t e, size_t f) {
-    blendBlock(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
+    if (store) {
+      blendBlock<true>(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
+    } else {
+      blendBlock<false>(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
+    }
   };
   // A blurred frame's 4 x 4 blends: their corners' colours are summed over the poses and blended
   // once in render() (the blend is linear), not written into the image at every pose.
@@ -948,9 +975,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
     for (int j = 0; j < n; ++j) {
       float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
       for (int i = 0; i < n; ++i, out += 3) {
-        out[0] += ca.b;
-        out[1] += ca.g;
-        out[2] += ca.r;
+        put(out, ca.b, ca.g, ca.r);
       }
     }
     return true;
@@ -974,8 +999,8 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, fl
 }
 
 cv::Mat Renderer::renderExact(const Pose2& pose) const {
-  cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  renderPose(pose, true, false, acc.ptr<float>());
+  cv::Mat acc(height_, width_, CV_32FC3);
+  renderPose(pose, true, false, true, acc.ptr<float>());
   return acc;
 }
 
@@ -1000,21 +1025,21 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
     ++still_reused_;
   } else {
     acc.create(height_, width_, CV_32FC3);
-    acc.setTo(cv::Scalar::all(0));
+    if (!still) acc.setTo(cv::Scalar::all(0));  // a still frame writes every pixel
     // A blurred frame sums its poses' 4 x 4 blends per block and blends each block once.
     const bool sum_blocks = options_.block_fills && !still && width_ % 16 == 0 && height_ % 16 == 0;
     if (sum_blocks) {
       block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
       block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);
     }
-    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, acc.ptr<float>());
+    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, still, acc.ptr<float>());
     if (sum_blocks) {
       for (int v = 0; v < height_; v += 4) {
         for (int u = 0; u < width_; u += 4) {
           const size_t k = static_cast<size_t>((v / 4) * (width_ / 4) + u / 4);
           if (!block_summed_[k]) continue;
           const Rgb* sum = &block_sums_[4 * k];
-          blendBlock(acc.ptr<float>(), width_, u, v, 4, sum[0], sum[1], sum[2], sum[3]);
+          blendBlock<false>(acc.ptr<float>(), width_, u, v, 4, sum[0], sum[1], sum[2], sum[3]);
         }
       }
     }

@@ -79,10 +79,11 @@ class Renderer {
   double imageMotionBoundPx(const Pose2& a, const Pose2& b, double nearest_m) const;
 
  private:
-  /// Adds the image of one pose to `accumulate`; with sum_blocks (a blurred frame, image sides
-  /// multiples of 16), the 4 x 4 blocks it blends add their corners' colours to block_sums_
-  /// instead.
-  void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, float* accumulate) const;
+  /// Adds the image of one pose to `accumulate` (store: writes it, every pixel); with sum_blocks (a
+  /// blurred frame, image sides multiples of 16), the 4 x 4 blocks it blends add their corners'
+  /// colours to block_sums_ instead.
+  void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
+                  float* accumulate) const;
 
   CameraConfig config_;
   CameraModel camera_;

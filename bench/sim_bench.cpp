@@ -130,13 +130,13 @@ int main(int argc, char** argv) {
     const double sim_s = argc > 3 ? std::stod(argv[3]) : 60.0;
     const int still_frames = argc > 4 ? std::max(3, std::stoi(argv[4])) : 72;
 
-    RenderOptions options;  // as the node renders (still frames reused, block fills)
+    RenderOptions options;  // as the node renders (still frames reused, blurred frames' blends summed)
     options.supersampling = robot.camera.supersampling;
     options.noise_sigma = robot.camera.noise_sigma;
-    RenderOptions today =
-        options;  // the code path before issue 13: every frame rendered anew, no block fills
+    // The code path before issue 13: every frame rendered anew, every pose's blends added.
+    RenderOptions today = options;
     today.still_reuse_px = -1;
-    today.block_fills = false;
+    today.blur_block_sums = false;
 
     // Render time: still frames at headings all around the start (boards in view or not), today's
     // renderer and now's alternately on the same pose, so that the machine's load hits both alike.
@@ -238,15 +238,13 @@ int main(int argc, char** argv) {
         "and world;\n"
         "times are the thread's CPU time (robust to other load), real-time factors are simulated s "
         "per CPU s.\n"
-        "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px: "
-        "-1`, and no\n"
-        "block fills, `block_fills: false`), run side by side in the same process; \"now\" is the "
-        "default (a\n"
-        "still frame within %.2g px of the last rendered still frame reuses its noiseless image "
-        "and gets fresh\n"
-        "noise; bare floor filled in 16x16 and 8x8 blocks; a blurred frame's 4x4 blends summed "
-        "over its poses\n"
-        "and blended once).\n\n",
+        "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px: -1`;\n"
+        "blurred frames add every pose's blends into the image, `blur_block_sums: false`), run side by\n"
+        "side in the same process; \"now\" is the default (a still frame within %.2g px of the last\n"
+        "rendered still frame reuses its noiseless image and gets fresh noise; a blurred frame sums its\n"
+        "poses' 4x4 blends per block and blends each block once). Both columns share two changes that\n"
+        "leave the images as they were: a still frame writes its pixels (no clearing pass), and the noise\n"
+        "and the rounding to 8 bits go row by row (no image-sized float buffer in between).\n\n",
         options.still_reuse_px);
     std::printf(
         "Render: %dx%d, %d still frames at headings all around the start pose, each rendered anew "

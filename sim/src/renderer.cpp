@@ -173,11 +173,6 @@ class Scene {
   /// bounding box holds no mark, the block holds no edge even where the floor grid is marked.
   bool floorAreaHoldsNoMark(double x0, double x1, double y0, double y1) const;
 
-  /// True when every ray of the azimuth bins first .. first + count - 1 (robot frame, wrapping
-  /// around) that meets the floor within a horizontal distance sqrt(dist2) [m] of the camera meets
-  /// it before any vertical quad or box top (the quads' footprints enclose the tops).
-  bool floorNearerThanQuads(int first, int count, double dist2) const;
-
   /// Prepares the per-bin lists of vertical quads for a camera at `origin` on a robot of this yaw.
   void prepare(const Eigen::Vector3d& origin, double yaw_rad) const;
 
@@ -438,16 +433,6 @@ void Scene::prepare(const Eigen::Vector3d& o, double yaw_rad) const {
   }
 }
 
-bool Scene::floorNearerThanQuads(int first, int count, double dist2) const {
-  for (int k = -kBinPadding; k < count + kBinPadding; ++k) {
-    if (bin_min_dist2_[static_cast<size_t>(((first + k) % kAzimuthBins + kAzimuthBins) %
-                                           kAzimuthBins)] <= dist2) {
-      return false;
-    }
-  }
-  return true;
-}
-
 Rgb Scene::floorColor(double x, double y, bool* marked) const {
   *marked = false;
   if (!grid_.empty()) {
@@ -659,48 +644,6 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
       }
     }
   }
-  // Blocks of 8 x 8 and 16 x 16 pixels that may be filled at once where they show bare floor: all
-  // their corners are valid rays pointing down, over an arc of azimuth bins short enough to check.
-  // Per block: the largest horizontal reach of a floor hit per metre of camera height, the nearest
-  // floor hit per metre of height, and the arc of bins.
-  for (int k = 0; k < 2; ++k) {
-    const int n = k == 0 ? 8 : 16;
-    std::vector<FloorBlock>& table = floor_blocks_[k];
-    table.clear();
-    if (!options_.block_fills || width_ % 16 != 0 || height_ % 16 != 0) continue;
-    table.resize(static_cast<size_t>((width_ / n) * (height_ / n)));
-    for (int bv = 0; bv < height_ / n; ++bv) {
-      for (int bu = 0; bu < width_ / n; ++bu) {
-        FloorBlock& block = table[static_cast<size_t>(bv * (width_ / n) + bu)];
-        block.ok = true;
-        const int first = corner_bins_[static_cast<size_t>(bv * n * (width_ + 1) + bu * n)];
-        int lo = 0, hi = 0;
-        for (int v = bv * n; v <= (bv + 1) * n && block.ok; ++v) {
-          for (int u = bu * n; u <= (bu + 1) * n; ++u) {
-            const size_t i = static_cast<size_t>(v * (width_ + 1) + u);
-            const Eigen::Vector3f& d = corner_dirs_[i];
-            if (!corner_valid_[i] || corner_bins_[i] == kAllBins || first == kAllBins ||
-                d.z() > -1e-3f) {
-              block.ok = false;
-              break;
-            }
-            const int offset =
-                ((corner_bins_[i] - first) % kAzimuthBins + kAzimuthBins + kAzimuthBins / 2) %
-                    kAzimuthBins -
-                kAzimuthBins / 2;
-            lo = std::min(lo, offset);
-            hi = std::max(hi, offset);
-            const float reach = std::hypot(d.x(), d.y()) / -d.z();
-            block.max_reach = std::max(block.max_reach, reach);
-            block.min_distance = std::min(block.min_distance, 1.0f / -d.z());
-          }
-        }
-        if (hi - lo > kAzimuthBins / 8) block.ok = false;
-        block.first_bin = first + lo;
-        block.bin_count = hi - lo + 1;
-      }
-    }
-  }
   // Sample positions within an edge pixel: a Hammersley set of ss^2 points (one per row and per
   // column of the ss^2 x ss^2 grid), which measures the area an edge covers in ss^2 steps
   // whatever its direction, where a regular ss x ss grid has only ss steps for axis-aligned edges.
@@ -769,7 +712,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
     double distance;  // corner rays are unit vectors: t is the distance [m]
     scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i], &distance);
     nearest_m_ = std::min(nearest_m_, distance);
-    if ((id[i] & ~kMarked) == 1) {  // floor: keep where the ray meets it (see smoothCorners)
+    if (id[i] == (1 | kMarked)) {  // marked floor: keep where the ray meets it (see smoothCorners)
       const double t = -origin.z() / dw.z();
       corner_floor_xy_[i] = Eigen::Vector2f(static_cast<float>(origin.x() + t * dw.x()),
                                             static_cast<float>(origin.y() + t * dw.y()));
@@ -778,8 +721,6 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
 
   const float thr = static_cast<float>(options_.edge_threshold);
   const float inv_samples = 1.0f / static_cast<float>(sample_offsets_.size());
-  // One pixel from its four (traced) corners: their mean where they agree, else the mean of
-  // sample rays spread over the pixel's area.
   // A pixel's value: added to the image (blurred frames), or written into it (store: a still frame,
   // whose buffer then needs no clearing).
   const auto put = [store](float* out, float b, float g, float r) {
@@ -793,12 +734,13 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
       out[2] += r;
     }
   };
+  // One pixel from its four (traced) corners: their mean where they agree, else the mean of
+  // sample rays spread over the pixel's area.
   auto shadePixel = [&](int u, int v) {
     const size_t i00 = static_cast<size_t>(v * W + u), i10 = i00 + 1, i01 = i00 + W, i11 = i01 + 1;
     float* out = acc + 3 * (static_cast<size_t>(v) * width_ + u);
-    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 ||
-        id[i11] < 0) {  // outside the lens model: black
-      if (store) out[0] = out[1] = out[2] = 0;
+    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 || id[i11] < 0) {
+      if (store) out[0] = out[1] = out[2] = 0;  // outside the lens model: black
       return;
     }
     const Rgb &a = color[i00], &b = color[i10], &e = color[i01], &f = color[i11];
@@ -928,73 +870,8 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
     block2(u, v + 2);
     block2(u + 2, v + 2);
   };
-  if (floor_blocks_[0].empty()) {
-    for (int v = 0; v < height_; v += 4) {
-      for (int u = 0; u < width_; u += 4) block4(u, v);
-    }
-    return;
-  }
-  // Larger blocks of bare floor (one colour) first: a 16 x 16 or 8 x 8 block whose outer corners
-  // show the floor in one colour, whose footprint holds no mark, and whose every ray meets the
-  // floor nearer than any quad of its azimuth bins (so that nothing stands in it, however thin)
-  // is that colour throughout: it is filled as the 4 x 4 blends would fill it.
-  const double height_m = origin.z();
-  const auto bareFloor = [&](int u, int v, int n) {
-    const FloorBlock& block =
-        floor_blocks_[n == 8 ? 0 : 1][static_cast<size_t>((v / n) * (width_ / n) + u / n)];
-    if (!block.ok) return false;
-    const size_t a = static_cast<size_t>(v * W + u), b = a + n, e = a + n * W, f = e + n;
-    for (const size_t i : {a, b, e, f}) traceCorner(i);
-    if ((id[a] & ~kMarked) != 1 || (id[b] & ~kMarked) != 1 || (id[e] & ~kMarked) != 1 ||
-        (id[f] & ~kMarked) != 1) {
-      return false;
-    }
-    const Rgb& ca = color[a];
-    for (const size_t i : {b, e, f}) {
-      if (color[i].b != ca.b || color[i].g != ca.g || color[i].r != ca.r) return false;
-    }
-    const double reach_m = 1.01 * height_m * block.max_reach;
-    if (!scene_->floorNearerThanQuads(block.first_bin, block.bin_count, reach_m * reach_m))
-      return false;
-    const Eigen::Vector2f &pa = corner_floor_xy_[a], &pb = corner_floor_xy_[b],
-                          &pe = corner_floor_xy_[e], &pf = corner_floor_xy_[f];
-    if (!scene_->floorAreaHoldsNoMark(
-            std::min(std::min(pa.x(), pb.x()), std::min(pe.x(), pf.x())),
-            std::max(std::max(pa.x(), pb.x()), std::max(pe.x(), pf.x())),
-            std::min(std::min(pa.y(), pb.y()), std::min(pe.y(), pf.y())),
-            std::max(std::max(pa.y(), pb.y()), std::max(pe.y(), pf.y())))) {
-      return false;
-    }
-    nearest_m_ = std::min(nearest_m_, height_m * block.min_distance);
-    if (sum_blocks) {
-      for (int j = 0; j < n; j += 4) {
-        for (int i = 0; i < n; i += 4) sumBlock4(u + i, v + j, ca, ca, ca, ca);
-      }
-      return true;
-    }
-    for (int j = 0; j < n; ++j) {
-      float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
-      for (int i = 0; i < n; ++i, out += 3) {
-        put(out, ca.b, ca.g, ca.r);
-      }
-    }
-    return true;
-  };
-  const auto block8 = [&](int u, int v) {
-    if (bareFloor(u, v, 8)) return;
-    block4(u, v);
-    block4(u + 4, v);
-    block4(u, v + 4);
-    block4(u + 4, v + 4);
-  };
-  for (int v = 0; v < height_; v += 16) {
-    for (int u = 0; u < width_; u += 16) {
-      if (bareFloor(u, v, 16)) continue;
-      block8(u, v);
-      block8(u + 8, v);
-      block8(u, v + 8);
-      block8(u + 8, v + 8);
-    }
+  for (int v = 0; v < height_; v += 4) {
+    for (int u = 0; u < width_; u += 4) block4(u, v);
   }
 }
 
@@ -1027,7 +904,8 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
     acc.create(height_, width_, CV_32FC3);
     if (!still) acc.setTo(cv::Scalar::all(0));  // a still frame writes every pixel
     // A blurred frame sums its poses' 4 x 4 blends per block and blends each block once.
-    const bool sum_blocks = options_.block_fills && !still && width_ % 16 == 0 && height_ % 16 == 0;
+    const bool sum_blocks =
+        options_.blur_block_sums && !still && width_ % 4 == 0 && height_ % 4 == 0;
     if (sum_blocks) {
       block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
       block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);

@@ -10,7 +10,6 @@
 
 #include <Eigen/Core>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <random>
@@ -38,10 +37,10 @@ struct RenderOptions {
   /// amounts for about 0.6 s before it stops exactly, and 0.01 px is far below the renderer's
   /// accuracy (corners within 0.15 px) and the noise.
   double still_reuse_px = 0.01;
-  /// Blocks of bare floor filled 16 x 16 or 8 x 8 pixels at once, and a blurred frame's 4 x 4
-  /// blends summed over its poses and blended once (the same image, up to float rounding in blurred
-  /// frames). False: the renderer as it was before (for the benchmark's side-by-side).
-  bool block_fills = true;
+  /// A blurred frame's 4 x 4 blends summed over its poses (their corners' colours) and blended
+  /// once, not added into the image at every pose (the same image up to float rounding). False:
+  /// every pose's blends added into the image (the code before; for the benchmark's side-by-side).
+  bool blur_block_sums = true;
 };
 
 class Scene;
@@ -80,7 +79,7 @@ class Renderer {
 
  private:
   /// Adds the image of one pose to `accumulate` (store: writes it, every pixel); with sum_blocks (a
-  /// blurred frame, image sides multiples of 16), the 4 x 4 blocks it blends add their corners'
+  /// blurred frame, image sides multiples of 4), the 4 x 4 blocks it blends add their corners'
   /// colours to block_sums_ instead.
   void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
                   float* accumulate) const;
@@ -95,15 +94,6 @@ class Renderer {
   std::vector<uint16_t> corner_bins_;
   std::vector<uint8_t> corner_valid_;
   std::vector<uint8_t> block4_valid_;  ///< per 4 x 4 pixel block: all its corners are valid rays
-  /// A block of 8 x 8 or 16 x 16 pixels that may show bare floor (see renderPose).
-  struct FloorBlock {
-    bool ok = false;      ///< all its corner rays are valid and point down, over a short arc
-    float max_reach = 0;  ///< largest horizontal reach of a corner ray's floor hit per m of height
-    float min_distance =
-        std::numeric_limits<float>::infinity();  ///< nearest floor hit per m of height
-    int first_bin = 0, bin_count = 0;            ///< the azimuth bins its rays span
-  };
-  std::vector<FloorBlock> floor_blocks_[2];  ///< 8 x 8 and 16 x 16 blocks, row-major
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;

@@ -130,7 +130,8 @@ int main(int argc, char** argv) {
     const double sim_s = argc > 3 ? std::stod(argv[3]) : 60.0;
     const int still_frames = argc > 4 ? std::max(3, std::stoi(argv[4])) : 72;
 
-    RenderOptions options;  // as the node renders (still frames reused, blurred frames' blends summed)
+    // As the node renders: still frames reused, blurred frames' blends summed.
+    RenderOptions options;
     options.supersampling = robot.camera.supersampling;
     options.noise_sigma = robot.camera.noise_sigma;
     // The code path before issue 13: every frame rendered anew, every pose's blends added.
@@ -238,13 +239,14 @@ int main(int argc, char** argv) {
         "and world;\n"
         "times are the thread's CPU time (robust to other load), real-time factors are simulated s "
         "per CPU s.\n"
-        "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px: -1`;\n"
-        "blurred frames add every pose's blends into the image, `blur_block_sums: false`), run side by\n"
-        "side in the same process; \"now\" is the default (a still frame within %.2g px of the last\n"
-        "rendered still frame reuses its noiseless image and gets fresh noise; a blurred frame sums its\n"
-        "poses' 4x4 blends per block and blends each block once). Both columns share two changes that\n"
-        "leave the images as they were: a still frame writes its pixels (no clearing pass), and the noise\n"
-        "and the rounding to 8 bits go row by row (no image-sized float buffer in between).\n\n",
+        "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px:\n"
+        "-1`; blurred frames add every pose's blends into the image, `blur_block_sums: false`),\n"
+        "run side by side in the same process; \"now\" is the default (a still frame within %.2g\n"
+        "px of the last rendered still frame reuses its noiseless image and gets fresh noise; a\n"
+        "blurred frame sums its poses' 4x4 blends per block and blends each block once). Both\n"
+        "columns share two changes that leave the images as they were: a still frame writes its\n"
+        "pixels (no clearing pass), and the noise and the rounding to 8 bits go row by row (no\n"
+        "image-sized float buffer in between).\n\n",
         options.still_reuse_px);
     std::printf(
         "Render: %dx%d, %d still frames at headings all around the start pose, each rendered anew "

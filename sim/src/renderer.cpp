@@ -41,6 +41,37 @@ const Rgb kStand = rgb(70, 70, 72);
 const Rgb kLaneWhite = rgb(232, 232, 232);
 const Rgb kLaneYellow = rgb(235, 200, 40);
 
+/// Adds to (kStore: writes into) an n x n block of pixels at (u, v) of a BGR float image `width`
+/// pixels wide the bilinear blend of its outer corners' colours (a top left, b top right, e bottom
+/// left, f bottom right).
+template <bool kStore>
+void blendBlock(float* acc, int width, int u, int v, int n, const Rgb& ca, const Rgb& cb,
+                const Rgb& ce, const Rgb& cf) {
+  const float inv = 1.0f / static_cast<float>(n);
+  for (int j = 0; j < n; ++j) {
+    const float y = (static_cast<float>(j) + 0.5f) * inv;
+    // The row's ends, then steps along it.
+    const float lb = ca.b + (ce.b - ca.b) * y, lg = ca.g + (ce.g - ca.g) * y,
+                lr = ca.r + (ce.r - ca.r) * y;
+    const float db = (cb.b + (cf.b - cb.b) * y - lb) * inv,
+                dg = (cb.g + (cf.g - cb.g) * y - lg) * inv,
+                dr = (cb.r + (cf.r - cb.r) * y - lr) * inv;
+    float* out = acc + 3 * (static_cast<size_t>(v + j) * width + u);
+    for (int i = 0; i < n; ++i, out += 3) {
+      const float x = static_cast<float>(i) + 0.5f;
+      if (kStore) {
+        out[0] = lb + db * x;
+        out[1] = lg + dg * x;
+        out[2] = lr + dr * x;
+      } else {
+        out[0] += lb + db * x;
+        out[1] += lg + dg * x;
+        out[2] += lr + dr * x;
+      }
+    }
+  }
+}
+
 uint32_t hash3(uint32_t a, int32_t x, int32_t y) {
   uint32_t h = a * 0x9E3779B1u ^ static_cast<uint32_t>(x) * 0x85EBCA77u ^
                static_cast<uint32_t>(y) * 0xC2B2AE3Du;
@@ -654,7 +685,8 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
 
 Renderer::~Renderer() = default;
 
-void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
+void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
+                          float* acc) const {
   const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
   scene_->prepare(origin, pose.yaw_rad);
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -689,12 +721,28 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
 
   const float thr = static_cast<float>(options_.edge_threshold);
   const float inv_samples = 1.0f / static_cast<float>(sample_offsets_.size());
+  // A pixel's value: added to the image (blurred frames), or written into it (store: a still frame,
+  // whose buffer then needs no clearing).
+  const auto put = [store](float* out, float b, float g, float r) {
+    if (store) {
+      out[0] = b;
+      out[1] = g;
+      out[2] = r;
+    } else {
+      out[0] += b;
+      out[1] += g;
+      out[2] += r;
+    }
+  };
   // One pixel from its four (traced) corners: their mean where they agree, else the mean of
   // sample rays spread over the pixel's area.
   auto shadePixel = [&](int u, int v) {
     const size_t i00 = static_cast<size_t>(v * W + u), i10 = i00 + 1, i01 = i00 + W, i11 = i01 + 1;
     float* out = acc + 3 * (static_cast<size_t>(v) * width_ + u);
-    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 || id[i11] < 0) return;  // outside the lens model
+    if (id[i00] < 0 || id[i10] < 0 || id[i01] < 0 || id[i11] < 0) {
+      if (store) out[0] = out[1] = out[2] = 0;  // outside the lens model: black
+      return;
+    }
     const Rgb &a = color[i00], &b = color[i10], &e = color[i01], &f = color[i11];
     const int id00 = id[i00] & ~kMarked;
     bool alike = id00 == (id[i10] & ~kMarked) && id00 == (id[i01] & ~kMarked) && id00 == (id[i11] & ~kMarked);
@@ -704,9 +752,8 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
               std::max(std::max(rb_a, rb_b), std::max(rb_e, rb_f)) - std::min(std::min(rb_a, rb_b), std::min(rb_e, rb_f)) <= thr;
     }
     if (alike || !antialias || sample_offsets_.size() <= 1) {
-      out[0] += 0.25f * (a.b + b.b + e.b + f.b);
-      out[1] += 0.25f * (a.g + b.g + e.g + f.g);
-      out[2] += 0.25f * (a.r + b.r + e.r + f.r);
+      put(out, 0.25f * (a.b + b.b + e.b + f.b), 0.25f * (a.g + b.g + e.g + f.g),
+          0.25f * (a.r + b.r + e.r + f.r));
       return;
     }
     // An edge crosses the pixel: integrate its area with sample rays, each interpolated between
@@ -726,9 +773,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
       sg += col.g;
       sr += col.r;
     }
-    out[0] += sb * inv_samples;
-    out[1] += sg * inv_samples;
-    out[2] += sr * inv_samples;
+    put(out, sb * inv_samples, sg * inv_samples, sr * inv_samples);
   };
 
   if (width_ % 2 != 0 || height_ % 2 != 0) {
@@ -765,22 +810,25 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
   };
   // Fills an n x n block of pixels at (u, v) with the bilinear blend of its outer corners.
   const auto blend = [&](int u, int v, int n, size_t a, size_t b, size_t e, size_t f) {
-    const Rgb &ca = color[a], &cb = color[b], &ce = color[e], &cf = color[f];
-    const float inv = 1.0f / static_cast<float>(n);
-    for (int j = 0; j < n; ++j) {
-      const float y = (static_cast<float>(j) + 0.5f) * inv;
-      // The row's ends, then steps along it.
-      const float lb = ca.b + (ce.b - ca.b) * y, lg = ca.g + (ce.g - ca.g) * y, lr = ca.r + (ce.r - ca.r) * y;
-      const float db = (cb.b + (cf.b - cb.b) * y - lb) * inv, dg = (cb.g + (cf.g - cb.g) * y - lg) * inv,
-                  dr = (cb.r + (cf.r - cb.r) * y - lr) * inv;
-      float* out = acc + 3 * (static_cast<size_t>(v + j) * width_ + u);
-      for (int i = 0; i < n; ++i, out += 3) {
-        const float x = static_cast<float>(i) + 0.5f;
-        out[0] += lb + db * x;
-        out[1] += lg + dg * x;
-        out[2] += lr + dr * x;
-      }
+    if (store) {
+      blendBlock<true>(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
+    } else {
+      blendBlock<false>(acc, width_, u, v, n, color[a], color[b], color[e], color[f]);
     }
+  };
+  // A blurred frame's 4 x 4 blends: their corners' colours are summed over the poses and blended
+  // once in render() (the blend is linear), not written into the image at every pose.
+  const auto sumBlock4 = [&](int u, int v, const Rgb& ca, const Rgb& cb, const Rgb& ce,
+                             const Rgb& cf) {
+    const size_t k = static_cast<size_t>((v / 4) * (width_ / 4) + u / 4);
+    Rgb* sum = &block_sums_[4 * k];
+    const Rgb* corners[4] = {&ca, &cb, &ce, &cf};
+    for (int c = 0; c < 4; ++c) {
+      sum[c].b += corners[c]->b;
+      sum[c].g += corners[c]->g;
+      sum[c].r += corners[c]->r;
+    }
+    block_summed_[k] = 1;
   };
   const auto block2 = [&](int u, int v) {
     const size_t a = static_cast<size_t>(v * W + u), b = a + 2, e = a + 2 * W, f = e + 2;
@@ -805,25 +853,31 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, float* acc) const {
     return;
   }
   const int blocks_per_row = width_ / 4;
-  for (int v = 0; v < height_; v += 4) {
-    for (int u = 0; u < width_; u += 4) {
-      const size_t a = static_cast<size_t>(v * W + u), b = a + 4, e = a + 4 * W, f = e + 4;
-      for (const size_t i : {a, b, e, f}) traceCorner(i);
-      if (block4_valid_[static_cast<size_t>((v / 4) * blocks_per_row + u / 4)] && smoothCorners(a, b, e, f)) {
+  const auto block4 = [&](int u, int v) {
+    const size_t a = static_cast<size_t>(v * W + u), b = a + 4, e = a + 4 * W, f = e + 4;
+    for (const size_t i : {a, b, e, f}) traceCorner(i);
+    if (block4_valid_[static_cast<size_t>((v / 4) * blocks_per_row + u / 4)] &&
+        smoothCorners(a, b, e, f)) {
+      if (sum_blocks) {
+        sumBlock4(u, v, color[a], color[b], color[e], color[f]);
+      } else {
         blend(u, v, 4, a, b, e, f);
-        continue;
       }
-      block2(u, v);
-      block2(u + 2, v);
-      block2(u, v + 2);
-      block2(u + 2, v + 2);
+      return;
     }
+    block2(u, v);
+    block2(u + 2, v);
+    block2(u, v + 2);
+    block2(u + 2, v + 2);
+  };
+  for (int v = 0; v < height_; v += 4) {
+    for (int u = 0; u < width_; u += 4) block4(u, v);
   }
 }
 
 cv::Mat Renderer::renderExact(const Pose2& pose) const {
-  cv::Mat acc(height_, width_, CV_32FC3, cv::Scalar::all(0));
-  renderPose(pose, true, acc.ptr<float>());
+  cv::Mat acc(height_, width_, CV_32FC3);
+  renderPose(pose, true, false, true, acc.ptr<float>());
   return acc;
 }
 
@@ -848,8 +902,25 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
     ++still_reused_;
   } else {
     acc.create(height_, width_, CV_32FC3);
-    acc.setTo(cv::Scalar::all(0));
-    for (const Pose2& p : poses) renderPose(p, still, acc.ptr<float>());
+    if (!still) acc.setTo(cv::Scalar::all(0));  // a still frame writes every pixel
+    // A blurred frame sums its poses' 4 x 4 blends per block and blends each block once.
+    const bool sum_blocks =
+        options_.blur_block_sums && !still && width_ % 4 == 0 && height_ % 4 == 0;
+    if (sum_blocks) {
+      block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
+      block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);
+    }
+    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, still, acc.ptr<float>());
+    if (sum_blocks) {
+      for (int v = 0; v < height_; v += 4) {
+        for (int u = 0; u < width_; u += 4) {
+          const size_t k = static_cast<size_t>((v / 4) * (width_ / 4) + u / 4);
+          if (!block_summed_[k]) continue;
+          const Rgb* sum = &block_sums_[4 * k];
+          blendBlock<false>(acc.ptr<float>(), width_, u, v, 4, sum[0], sum[1], sum[2], sum[3]);
+        }
+      }
+    }
     if (poses.size() > 1) acc *= 1.0 / static_cast<double>(poses.size());
     if (still) {
       ++still_rendered_;
@@ -859,10 +930,15 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
   }
   const size_t n = static_cast<size_t>(width_) * height_ * 3;
   const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
+  // Noise added, then rounded and saturated to 0..255, row by row through a one-row buffer that
+  // stays in the cache (an image-sized float buffer in between cost memory traffic: a large part
+  // of a frame's time is moving image-sized buffers).
   const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
-  cv::scaleAdd(noise, options_.noise_sigma, acc, noisy_);
-  cv::Mat out;
-  noisy_.convertTo(out, CV_8UC3);  // rounds and saturates to 0..255
+  cv::Mat out(height_, width_, CV_8UC3);
+  for (int v = 0; v < height_; ++v) {
+    cv::scaleAdd(noise.row(v), options_.noise_sigma, acc.row(v), noisy_row_);
+    noisy_row_.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255
+  }
   return out;
 }
 

@@ -37,6 +37,10 @@ struct RenderOptions {
   /// amounts for about 0.6 s before it stops exactly, and 0.01 px is far below the renderer's
   /// accuracy (corners within 0.15 px) and the noise.
   double still_reuse_px = 0.01;
+  /// A blurred frame's 4 x 4 blends summed over its poses (their corners' colours) and blended
+  /// once, not added into the image at every pose (the same image up to float rounding). False:
+  /// every pose's blends added into the image (the code before; for the benchmark's side-by-side).
+  bool blur_block_sums = true;
 };
 
 class Scene;
@@ -74,7 +78,11 @@ class Renderer {
   double imageMotionBoundPx(const Pose2& a, const Pose2& b, double nearest_m) const;
 
  private:
-  void renderPose(const Pose2& pose, bool antialias, float* accumulate) const;
+  /// Adds the image of one pose to `accumulate` (store: writes it, every pixel); with sum_blocks (a
+  /// blurred frame, image sides multiples of 4), the 4 x 4 blocks it blends add their corners'
+  /// colours to block_sums_ instead.
+  void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
+                  float* accumulate) const;
 
   CameraConfig config_;
   CameraModel camera_;
@@ -90,6 +98,9 @@ class Renderer {
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;
   mutable std::vector<Eigen::Vector2f> corner_floor_xy_;  // where a marked-floor corner's ray lands
+  mutable std::vector<detail::Rgb>
+      block_sums_;                             // blurred frame: per 4 x 4 block, its corners' sums
+  mutable std::vector<uint8_t> block_summed_;  // ... and whether any pose blended it
   mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
   mutable uint32_t frame_ = 0;
   std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2
@@ -100,7 +111,7 @@ class Renderer {
   mutable Pose2 still_pose_;
   mutable double still_nearest_m_ = 0;
   mutable double nearest_m_ = 0;
-  mutable cv::Mat accumulator_, noisy_;  ///< per-frame buffers, kept between frames  ///< nearest surface hit by the corners traced in a frame [m]
+  mutable cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
   mutable uint64_t still_rendered_ = 0, still_reused_ = 0;
 };
 

@@ -25,3 +25,15 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/report/run_kill.test ARGS stage:=wheels
     DEPENDENCIES test_run_kill run_report_node wheel_calibration_node sim_node)
 endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # The whole run with the odometry stage (calibrate_run.test), judged by the simulator's truth.
+  add_executable(test_calibrate_run EXCLUDE_FROM_ALL test/report/test_calibrate_run.cpp)
+  target_link_libraries(test_calibrate_run autocal_core autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_calibrate_run PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_calibrate_run)
+  add_dependencies(tests test_calibrate_run)
+  add_rostest(test/report/calibrate_run.test
+    DEPENDENCIES test_calibrate_run run_report_node camera_calibration_node wheel_calibration_node
+                 odometry_calibration_node straight_length_helper sim_node)
+endif()

@@ -1,0 +1,83 @@
+// The whole run (calibrate_run.test): waits for run_report_node's summary.yaml and judges the
+// files it names against the simulator's truth (the robot config): the camera's fx, fy, cx, cy
+// within 0.5 %, the trim within 0.005 of what the true wheels need, and UAH's Ed within 0.2 %, the
+// wheelbase and each wheel's distance per pulse within 0.5 % (issue 11's bounds).
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+
+#include "autocal/io/yaml_reader.h"
+#include "autocal/sim/config.h"
+#include "autocal/wheels/kinematics.h"
+#include "support/ros_wait.h"
+#include "support/test_params.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using autocal::YamlMap;
+using autocal::test::spinUntil;
+using autocal::test::testParam;
+
+void expectWithin(const char* what, double found, double truth, double share) {
+  std::cout << what << ": found " << found << ", truth " << truth << ", error "
+            << 100 * (found - truth) / truth << " %" << std::endl;
+  EXPECT_NEAR(found, truth, share * std::abs(truth)) << what;
+}
+
+TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
+  const std::string veh = testParam<std::string>("veh");
+  const fs::path root = testParam<std::string>("calibration_root");
+  const autocal::sim::RobotConfig robot =
+      autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
+  const fs::path summary_path = root / "report" / veh / "summary.yaml";
+  fs::remove_all(root);  // an earlier test run's files (the nodes write only at their ends)
+  ros::NodeHandle nh;
+  ASSERT_TRUE(spinUntil([&] { return fs::exists(summary_path); }, 580.0)) << summary_path;
+  YamlMap summary = YamlMap::loadFile(summary_path.string());
+  ASSERT_EQ(summary.required<std::string>("result"), "success")
+      << summary.required<std::string>("failure");
+  EXPECT_TRUE(fs::exists(root / "report" / veh / "report.png"));
+  YamlMap stages = summary.map("stages");
+
+  // Camera: the file camera_info_manager reads.
+  YamlMap camera = YamlMap::loadFile(stages.map("camera").required<std::string>("file"));
+  const std::vector<double> k = camera.map("camera_matrix").required<std::vector<double>>("data");
+  ASSERT_EQ(k.size(), 9u);
+  expectWithin("fx", k[0], robot.camera.truth.fx, 0.005);
+  expectWithin("fy", k[4], robot.camera.truth.fy, 0.005);
+  expectWithin("cx", k[2], robot.camera.truth.cx, 0.005);
+  expectWithin("cy", k[5], robot.camera.truth.cy, 0.005);
+
+  // Wheels: the trim the true wheels need with the deadband compensated (compare_wheels).
+  const autocal::wheels::KinematicsParams kin =
+      autocal::wheels::readKinematicsFile(stages.map("wheels").required<std::string>("file"));
+  const double k_true = (robot.motor_gain_left * robot.wheel_radius_left) /
+                        (robot.motor_gain_right * robot.wheel_radius_right);
+  const double trim_true = autocal::wheels::trimFromSpeedRatio(k_true, kin.gain);
+  std::cout << "trim: found " << kin.trim << ", truth " << trim_true << std::endl;
+  EXPECT_NEAR(kin.trim, trim_true, 0.005);
+
+  // Odometry (UAH): Ed = r_R/r_L, the wheelbase, each wheel's distance per pulse.
+  YamlMap odo = YamlMap::loadFile(stages.map("odometry").required<std::string>("file"));
+  EXPECT_EQ(odo.required<std::string>("method"), "uah");
+  expectWithin("Ed", odo.required<double>("Ed"), robot.wheel_radius_right / robot.wheel_radius_left,
+               0.002);
+  expectWithin("wheelbase", odo.required<double>("b"), robot.wheelbase, 0.005);
+  const double pulse = 2 * M_PI / robot.encoder_resolution;
+  expectWithin("left m/pulse", odo.required<double>("left_m_per_pulse"),
+               pulse * robot.wheel_radius_left, 0.005);
+  expectWithin("right m/pulse", odo.required<double>("right_m_per_pulse"),
+               pulse * robot.wheel_radius_right, 0.005);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_calibrate_run");
+  return RUN_ALL_TESTS();
+}

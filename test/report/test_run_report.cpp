@@ -94,6 +94,35 @@ TEST(RunRecorder, DeadStageAndInterruption) {
   EXPECT_THROW(RunRecorder("a", {"camera/x"}), ConfigError);
 }
 
+TEST(RunRecorder, KeepsWhatTheLastReportSaysOfAStageWithoutStatus) {
+  RunRecorder r("autobot", {"camera", "wheels"});
+  r.addStatus(status(2, "wheels/iterate", kFailed, "lost"));
+  r.keepFromLastRun("camera", "/x/c.yaml", {{"fx", 318}});
+  r.keepFromLastRun("wheels", "/x/k.yaml", {});  // failed in this run: stays failed
+  EXPECT_EQ(r.record().stage("camera")->state, StageState::kDone);
+  EXPECT_EQ(r.record().stage("camera")->file, "/x/c.yaml");
+  EXPECT_EQ(r.record().stage("wheels")->state, StageState::kFailed);
+}
+
+TEST(Report, PreviousStageReadsTheSummaryBack) {
+  const fs::path dir = fs::temp_directory_path() / "autocal_test_previous_stage";
+  fs::remove_all(dir);
+  RunRecorder r("autobot", {"camera", "wheels"});
+  r.addStatus(status(1, "camera/write", kDone, "wrote /x/c.yaml", {{"fx", 318.5}, {"k1", -0.27}}));
+  r.addStatus(status(2, "wheels/iterate", kFailed, "lost"));
+  const ReportFiles f = writeReport(dir.string(), r.record(), "", ReportOptions());
+  const PreviousStage camera = previousStage(f.summary_yaml, "camera");
+  EXPECT_TRUE(camera.done);
+  EXPECT_EQ(camera.file, "/x/c.yaml");
+  ASSERT_EQ(camera.figures.size(), 2u);
+  EXPECT_EQ(camera.figures[1].first, "k1");
+  EXPECT_DOUBLE_EQ(camera.figures[1].second, -0.27);
+  EXPECT_FALSE(previousStage(f.summary_yaml, "wheels").done);
+  EXPECT_FALSE(previousStage(f.summary_yaml, "odometry").done);
+  EXPECT_FALSE(previousStage((dir / "none.yaml").string(), "camera").done);
+  fs::remove_all(dir);
+}
+
 TEST(BelievedPath, IntegratesTheEncoders) {
   RunRecorder r("autobot", {"wheels"});
   const int tpr = 135;

@@ -7,10 +7,13 @@
 #include <ros/ros.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "autocal/errors.h"
+#include "autocal/report/run_report.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
 #include "autocal_ros/params.h"
@@ -79,6 +82,49 @@ TEST(NodeRuntime, StatusIsLatchedAndFailedCarriesTheReason) {
   EXPECT_EQ(got.back().state, CalibrationStatus::STATE_FAILED);
   EXPECT_EQ(got.back().phase, "camera");
   EXPECT_EQ(got.back().failure_reason, "no board seen in a full turn");
+}
+
+TEST(NodeRuntime, ResumeKeepsAStageTheLastReportSaysSucceeded) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::temp_directory_path() / "autocal_test_resume";
+  fs::remove_all(root);
+  fs::create_directories(root / "report" / "robo");
+  fs::create_directories(root / "camera_intrinsic");
+  const std::string camera_file = (root / "camera_intrinsic" / "robo.yaml").string();
+  std::ofstream(camera_file) << "image_width: 640\n";
+  // The last run: the camera stage done, the wheel stage failed.
+  autocal::report::RunRecorder r("robo", {"camera", "wheels"});
+  autocal::report::StatusUpdate u;
+  u.phase = "camera/write";
+  u.state = autocal::report::StatusUpdate::State::kDone;
+  u.text = "wrote " + camera_file;
+  u.figures = {{"fx", 318.0}, {"min_duty_left_forward", 0.11}};
+  r.addStatus(u);
+  u.phase = "wheels/iterate";
+  u.state = autocal::report::StatusUpdate::State::kFailed;
+  u.failure_reason = "the floor tags were lost";
+  r.addStatus(u);
+  autocal::report::writeReport((root / "report" / "robo").string(), r.record(), "", {});
+
+  ros::NodeHandle nh("resume_test");
+  StatusPublisher status(nh, "calibration/status");
+  std::vector<CalibrationStatus> got;
+  ros::Subscriber sub = nh.subscribe<CalibrationStatus>(
+      "calibration/status", 10, [&](const CalibrationStatus::ConstPtr& m) { got.push_back(*m); });
+  EXPECT_FALSE(autocal::ros_layer::resumeStage(status, root.string(), "robo", "wheels"));
+  EXPECT_FALSE(autocal::ros_layer::resumeStage(status, root.string(), "other", "camera"));
+  ASSERT_TRUE(autocal::ros_layer::resumeStage(status, root.string(), "robo", "camera"));
+  ASSERT_TRUE(spinUntil([&] { return !got.empty(); }, 10.0));
+  EXPECT_EQ(got.back().state, CalibrationStatus::STATE_DONE);
+  EXPECT_EQ(got.back().phase, "camera/resumed");
+  EXPECT_EQ(got.back().text, "kept " + camera_file);
+  ASSERT_EQ(got.back().figure_names.size(), 2u);
+  EXPECT_EQ(got.back().figure_names[1], "min_duty_left_forward");
+  EXPECT_DOUBLE_EQ(got.back().figure_values[1], 0.11);
+  // Its file gone: the stage runs again.
+  fs::remove(camera_file);
+  EXPECT_FALSE(autocal::ros_layer::resumeStage(status, root.string(), "robo", "camera"));
+  fs::remove_all(root);
 }
 
 TEST(NodeRuntime, StopSendsZeroDutiesThatASubscriberSees) {

@@ -87,6 +87,10 @@ class RunRecorder {
   void markStageDead(const std::string& stage, const std::string& why);
   /// The run was stopped from outside before it ended.
   void markInterrupted(const std::string& why);
+  /// A resumed run: a stage this run has no status of (still pending) takes the result the last
+  /// run's report kept for it, so that a run interrupted before its stages spoke does not lose it.
+  void keepFromLastRun(const std::string& stage, const std::string& file,
+                       const std::vector<std::pair<std::string, double>>& figures);
 
   /// Every stage DONE, or one FAILED, or the run marked interrupted.
   bool ended() const;
@@ -150,6 +154,16 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
 /// summary.yaml's text.
 std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
                         const ReportOptions& options, const std::string& time_utc);
+
+/// What a run's summary.yaml says of one stage (for resuming a run after a failure).
+struct PreviousStage {
+  bool done = false;
+  std::string file;
+  std::vector<std::pair<std::string, double>> figures;
+};
+/// Reads `stage` from a summary.yaml that summaryYaml wrote; not done when the file is missing.
+/// Throws ConfigError on a malformed file.
+PreviousStage previousStage(const std::string& summary_yaml, const std::string& stage);
 
 struct ReportFiles {
   std::string sheet_png, summary_yaml;

@@ -1,5 +1,7 @@
 #include "autocal/report/run_report.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -257,8 +259,9 @@ void RunRecorder::addStatus(const StatusUpdate& status) {
   switch (status.state) {
     case StatusUpdate::State::kDone: {
       s->state = StageState::kDone;
-      const std::string prefix = "wrote ";
-      if (status.text.rfind(prefix, 0) == 0) s->file = status.text.substr(prefix.size());
+      // "wrote <file>", or "kept <file>" when a resumed run kept the stage's earlier result.
+      for (const std::string prefix : {"wrote ", "kept "})
+        if (status.text.rfind(prefix, 0) == 0) s->file = status.text.substr(prefix.size());
       break;
     }
     case StatusUpdate::State::kFailed:
@@ -302,6 +305,17 @@ void RunRecorder::markStageDead(const std::string& stage, const std::string& why
   if (!s || s->state == StageState::kDone || s->state == StageState::kFailed) return;
   s->state = StageState::kFailed;
   s->failure = why;
+}
+
+void RunRecorder::keepFromLastRun(const std::string& stage, const std::string& file,
+                                  const std::vector<std::pair<std::string, double>>& figures) {
+  StageRecord* s = find(stage);
+  if (!s || s->state != StageState::kPending) return;
+  s->state = StageState::kDone;
+  s->phase = stage + "/resumed";
+  s->text = "kept " + file;
+  s->file = file;
+  s->figures = figures;
 }
 
 void RunRecorder::markInterrupted(const std::string& why) {
@@ -510,6 +524,30 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
       << ", detail: " << quoted(g.detail) << "}\n";
   }
   return o.str();
+}
+
+PreviousStage previousStage(const std::string& summary_yaml, const std::string& stage) {
+  PreviousStage p;
+  if (!fs::exists(summary_yaml)) return p;
+  YamlMap root = YamlMap::loadFile(summary_yaml);
+  if (!root.has("stages")) return p;
+  YamlMap stages = root.map("stages");
+  if (!stages.has(stage)) return p;
+  YamlMap s = stages.map(stage);
+  p.done = s.required<std::string>("state") == "done";
+  p.file = s.optional<std::string>("file", "");
+  // The figures keep their order: yaml-cpp iterates a map in the document's order.
+  const YAML::Node figures = YAML::LoadFile(summary_yaml)["stages"][stage]["figures"];
+  if (figures && figures.IsMap()) {
+    for (const auto& f : figures) {
+      try {
+        p.figures.emplace_back(f.first.as<std::string>(), f.second.as<double>());
+      } catch (const YAML::Exception&) {
+        root.fail("stages." + stage + ".figures", "each figure must be a number");
+      }
+    }
+  }
+  return p;
 }
 
 ReportFiles writeReport(const std::string& dir, const RunRecord& record,

@@ -47,6 +47,7 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   o.veh = ros_layer::defaultVeh(nh);
   p.get("veh", o.veh);
   p.get("calibration_root", o.calibration_root);
+  p.get("resume", o.resume);
   o.camera_config = ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
   p.get("camera_config", o.camera_config);
   p.get("board_inner_corners", o.board_inner_corners);
@@ -248,6 +249,9 @@ void CameraCalibrationNode::publishStatus(bool force) {
 }
 
 void CameraCalibrationNode::run() {
+  if (options_.resume &&
+      ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "camera"))
+    return;
   connect();
   waitForCameraInfo();
   if (!ros_layer::runStageLoop(

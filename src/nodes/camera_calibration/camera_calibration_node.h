@@ -33,6 +33,9 @@ namespace camera {
 struct CameraCalibrationNodeOptions {
   std::string veh;  ///< default: the last component of the node's namespace
   std::string calibration_root = "/data/config/calibrations";
+  /// Resuming a run after a failure: keep this stage's result when the run's last report says
+  /// it succeeded and its file still exists (ros_layer::resumeStage).
+  bool resume = false;
   std::string camera_config;        ///< default: the package's config/camera_calibration.yaml
   std::string board_inner_corners;  ///< e.g. "7x5"; empty: the config's
   double board_square_m = 0;        ///< 0: the config's

@@ -53,6 +53,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   o.veh = ros_layer::defaultVeh(nh);
   p.get("veh", o.veh);
   p.get("calibration_root", o.calibration_root);
+  p.get("resume", o.resume);
   p.get("wheel_radius_m", o.wheel_radius_m);
   p.get("wheelbase_m", o.wheelbase_m);
   p.get("ticks_per_revolution", o.ticks_per_revolution);
@@ -178,6 +179,9 @@ void OdometryCalibrationNode::publishStatus(bool force) {
 }
 
 void OdometryCalibrationNode::run() {
+  if (options_.resume &&
+      ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "odometry"))
+    return;
   if (!options_.after_stage.empty()) {
     status_.running("odometry/wait", 0, "waiting for the " + options_.after_stage + " stage");
     ROS_INFO("odometry_calibration_node: waiting for the %s stage's DONE on %s",

@@ -43,6 +43,9 @@ namespace odometry {
 struct OdometryCalibrationNodeOptions {
   std::string veh;  ///< default: the last component of the node's namespace
   std::string calibration_root = "/data/config/calibrations";
+  /// Resuming a run after a failure: keep this stage's result when the run's last report says
+  /// it succeeded and its file still exists (ros_layer::resumeStage).
+  bool resume = false;
   /// The nominal robot: wheel radius [m] (both wheels) and wheelbase [m]; the encoder resolution
   /// comes from the encoder messages unless ticks_per_revolution > 0.
   double wheel_radius_m = 0.0318;

@@ -61,6 +61,7 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("min_corner_coverage", options_.report.min_corner_coverage);
   p.get("stage_start_timeout_s", options_.stage_start_timeout_s);
   p.get("ping_period_s", options_.ping_period_s);
+  p.get("resume", options_.resume);
   options_.validate();
   recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
 
@@ -150,6 +151,14 @@ void RunReportNode::printProgress() {
 }
 
 ReportFiles RunReportNode::write() {
+  if (options_.resume) {
+    const std::string last = (fs::path(options_.report_dir) / "summary.yaml").string();
+    for (const std::string& stage : options_.stages) {
+      const PreviousStage p = previousStage(last, stage);
+      if (p.done && !p.file.empty() && fs::exists(p.file))
+        recorder_->keepFromLastRun(stage, p.file, p.figures);
+    }
+  }
   const RunRecord& record = recorder_->record();
   ReportOptions o = options_.report;
   // The believed path with the wheels the run found, when it wrote them.

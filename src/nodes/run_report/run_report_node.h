@@ -42,6 +42,9 @@ struct RunReportNodeOptions {
   double stage_start_timeout_s = 120.0;
   /// How often the node of the running stage is pinged [wall s].
   double ping_period_s = 0.5;
+  /// A resumed run (the stages' ~resume): stages this run has no status of keep what the last
+  /// report says of them.
+  bool resume = false;
   /// Throws ConfigError naming the first bad key.
   void validate() const;
 };

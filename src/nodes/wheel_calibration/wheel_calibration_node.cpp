@@ -41,6 +41,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   o.veh = ros_layer::defaultVeh(nh);
   p.get("veh", o.veh);
   p.get("calibration_root", o.calibration_root);
+  p.get("resume", o.resume);
   p.get("intrinsics_file", o.intrinsics_file);
   p.get("camera_stage_wait_s", o.camera_stage_wait_s);
   p.get("image_transport", o.image_transport);
@@ -106,10 +107,12 @@ void WheelCalibrationNode::waitForCameraStage() {
   const autocal::CalibrationStatus done =
       ros_layer::waitForStage(nh_, "camera", options_.camera_stage_wait_s);  // throws
   if (!ros_layer::ok()) return;
-  if (done.text.rfind("wrote ", 0) != 0)
+  // "wrote <file>", or "kept <file>" from a resumed run.
+  const size_t space = done.text.find(' ');
+  if (!(done.text.rfind("wrote ", 0) == 0 || done.text.rfind("kept ", 0) == 0))
     throw CalibrationError("the camera stage's DONE names no file (\"" + done.text +
                            "\"), and no ~intrinsics_file");
-  options_.intrinsics_file = done.text.substr(6);
+  options_.intrinsics_file = done.text.substr(space + 1);
   camera_min_duty_left_ = figure(done, "min_duty_left_forward");
   camera_min_duty_right_ = figure(done, "min_duty_right_forward");
 }
@@ -160,6 +163,9 @@ void WheelCalibrationNode::publishStatus(bool force) {
 }
 
 void WheelCalibrationNode::run() {
+  if (options_.resume &&
+      ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "wheels"))
+    return;
   waitForCameraStage();
   if (!ros_layer::ok()) return;
   sensor_msgs::CameraInfo info;

@@ -30,6 +30,9 @@ namespace wheels {
 struct WheelCalibrationNodeOptions {
   std::string veh;  ///< default: the last component of the node's namespace
   std::string calibration_root = "/data/config/calibrations";
+  /// Resuming a run after a failure: keep this stage's result when the run's last report says
+  /// it succeeded and its file still exists (ros_layer::resumeStage).
+  bool resume = false;
   /// A camera_info YAML to start with at once; empty: wait for the camera stage's DONE and use the
   /// file it names.
   std::string intrinsics_file;

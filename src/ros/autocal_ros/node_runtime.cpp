@@ -9,9 +9,11 @@
 #include <atomic>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
+#include "autocal/report/run_report.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace autocal {
@@ -160,6 +162,29 @@ CalibrationStatus waitForStage(const ros::NodeHandle& nh, const std::string& sta
     }
   }
   return have_done ? done : CalibrationStatus();
+}
+
+bool resumeStage(StatusPublisher& status, const std::string& calibration_root,
+                 const std::string& veh, const std::string& stage) {
+  const std::string summary =
+      (std::filesystem::path(calibration_root) / "report" / veh / "summary.yaml").string();
+  const report::PreviousStage p = report::previousStage(summary, stage);
+  if (!p.done || p.file.empty() || !std::filesystem::exists(p.file)) {
+    ROS_INFO("%s: ~resume: the %s stage runs (%s)", ros::this_node::getName().c_str(),
+             stage.c_str(),
+             !std::filesystem::exists(summary) ? "no earlier report"
+             : !p.done                         ? "it did not succeed in the last run"
+                                               : "its file is gone");
+    return false;
+  }
+  ROS_INFO("%s: ~resume: the last run's %s stage succeeded (%s): kept, not run again",
+           ros::this_node::getName().c_str(), stage.c_str(), summary.c_str());
+  status.done(stage + "/resumed", "kept " + p.file, p.figures);
+  // The DONE is latched, but only while this node lives: stay until the nodes started with it
+  // (the next stage, run_report_node) have had time to connect and receive it.
+  const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(3.0);
+  while (ok() && ros::WallTime::now() < until) ros::WallDuration(0.05).sleep();
+  return true;
 }
 
 int nodePid(const std::string& name) {

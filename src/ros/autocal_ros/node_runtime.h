@@ -102,6 +102,13 @@ bool interrupted();
 CalibrationStatus waitForStage(const ros::NodeHandle& nh, const std::string& stage,
                                double timeout_s);
 
+/// Resuming a run after a failure (a stage's ~resume): when the run's last report,
+/// <calibration_root>/report/<veh>/summary.yaml, says `stage` was DONE and the file it named
+/// still exists, publishes that DONE again ("kept <file>", the same figures) and returns true:
+/// the stage need not run again. False otherwise (no report, the stage failed, the file is gone).
+bool resumeStage(StatusPublisher& status, const std::string& calibration_root,
+                 const std::string& veh, const std::string& stage);
+
 /// The process id of the ROS node `name` (e.g. "/autobot/wheel_calibration_node"), asked over its
 /// XML-RPC port as `rosnode ping` does; -1 when the master does not know it or it does not answer
 /// (a killed node stays registered, but its port is closed).

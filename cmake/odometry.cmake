@@ -32,8 +32,6 @@ endif()
 # The UAH experiments driven by the robot (odometry::UahRun) and their test on the simulator's core.
 target_sources(autocal_core PRIVATE src/core/odometry/uah_run.cpp)
 if(CATKIN_ENABLE_TESTING)
-  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
-                     LIBS autocal_core autocal_sim_core)
 endif()
 
 # The robot's UAH stage, and the simulator's tape measure for its straight runs.
@@ -74,6 +72,8 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(autocal_odometry_test_support PRIVATE
     AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
   autocal_core_gtest(test_umbmark_run_in_sim SOURCES test/odometry/test_umbmark_run_in_sim.cpp
+                     LIBS autocal_odometry_test_support)
+  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
                      LIBS autocal_odometry_test_support)
 endif()
 if(CATKIN_ENABLE_TESTING)

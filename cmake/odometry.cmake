@@ -95,6 +95,9 @@ if(CATKIN_ENABLE_TESTING)
                      LIBS autocal_odometry_test_support)
   autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
                      LIBS autocal_odometry_test_support)
+  # The passive mode (odometry::replayUah) on recordings of those runs.
+  autocal_core_gtest(test_uah_replay SOURCES test/odometry/test_uah_replay.cpp
+                     LIBS autocal_odometry_test_support)
 endif()
 if(CATKIN_ENABLE_TESTING)
   # method:=umbmark through ROS in the simulator (umbmark_node.test), judged by the robot config.

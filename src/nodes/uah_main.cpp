@@ -161,8 +161,11 @@ BagContents readBag(const std::string& path, const std::string& veh) {
   }
   BagContents out;
   UahRecording& rec = out.recording;
-  bool have_left = false, have_right = false;
-  std::int32_t left_ticks = 0, right_ticks = 0;
+  struct Tick {
+    double stamp_s;
+    std::int32_t ticks;
+  };
+  std::vector<Tick> wheel[2];  // left, right
   rosbag::View view(bag, rosbag::TopicQuery({left, right, range, cmd, status, length}));
   auto wrongType = [&](const rosbag::MessageInstance& m, const char* expected) {
     return InputError(path + ": " + m.getTopic() + " carries " + m.getDataType() + ", not " +
@@ -176,13 +179,7 @@ BagContents readBag(const std::string& path, const std::string& veh) {
         if (!msg) throw wrongType(m, "WheelEncoderStamped");
         const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
         out.ticks_per_revolution = r.ticks_per_revolution;
-        // As the node's EncoderInput: every message, once both wheels reported, is a reading of
-        // both wheels (the latest of each).
-        (topic == left ? left_ticks : right_ticks) = r.ticks;
-        (topic == left ? have_left : have_right) = true;
-        if (have_left && have_right) {
-          rec.encoders.push_back({stampOf(m, msg->header.stamp), left_ticks, right_ticks});
-        }
+        wheel[topic == left ? 0 : 1].push_back({stampOf(m, msg->header.stamp), r.ticks});
       } else if (topic == range) {
         const auto msg = m.instantiate<sensor_msgs::Range>();
         if (!msg) throw wrongType(m, "sensor_msgs/Range");
@@ -215,6 +212,22 @@ BagContents readBag(const std::string& path, const std::string& veh) {
   } catch (const rosbag::BagException& e) {
     throw InputError(path +
                      ": the bag cannot be read to its end (truncated or corrupt?): " + e.what());
+  }
+  // The two wheels' readings in the order of their stamps (the bag holds them in the order the
+  // recorder received them, which a loaded machine shuffles): as the node's EncoderInput, every
+  // reading, once both wheels reported, is a reading of both (the latest of each); readings of
+  // one stamp are merged by replayUah.
+  for (auto& w : wheel) {
+    std::stable_sort(w.begin(), w.end(),
+                     [](const Tick& a, const Tick& b) { return a.stamp_s < b.stamp_s; });
+  }
+  size_t i = 0, j = 0;
+  while (i < wheel[0].size() || j < wheel[1].size()) {
+    const bool take_left =
+        j >= wheel[1].size() || (i < wheel[0].size() && wheel[0][i].stamp_s <= wheel[1][j].stamp_s);
+    const Tick& t = take_left ? wheel[0][i++] : wheel[1][j++];
+    if (i == 0 || j == 0) continue;  // until both wheels reported
+    rec.encoders.push_back({t.stamp_s, wheel[0][i - 1].ticks, wheel[1][j - 1].ticks});
   }
   if (rec.encoders.empty()) {
     throw InputError(path + ": no reading of both encoders in the bag");

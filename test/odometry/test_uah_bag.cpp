@@ -94,6 +94,10 @@ void copyBag(const std::string& in, const std::string& out, const std::string& d
 
 double relative(double a, double b) { return a / b - 1; }
 
+int liveAcceptedRuns(const std::string& live_path) {
+  return YAML::LoadFile(live_path)["inputs"]["straight_runs_accepted"].as<int>();
+}
+
 TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   const std::string veh = testParam<std::string>("veh");
   const std::string root = testParam<std::string>("calibration_root");
@@ -135,6 +139,10 @@ TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   EXPECT_EQ(b["straight_runs"]["lengths"].as<std::string>(), "recorded");
   EXPECT_EQ(b["recorded_run"].as<std::string>(), "done");
   EXPECT_EQ(b["turns"].size(), 5u);  // 2 pivots on each wheel, 1 spin
+  // The straight runs the live node accepted, and their pulses and heading (the node logs them).
+  int accepted = 0;
+  for (const auto& run : b["straight_runs"]["runs"]) accepted += run["accepted"].as<bool>();
+  EXPECT_EQ(accepted, liveAcceptedRuns(live_path));
 
   const double Ed = b["Ed"].as<double>(), wheelbase = b["wheelbase_m"].as<double>(),
                cL = b["left_m_per_pulse"].as<double>(), cR = b["right_m_per_pulse"].as<double>();

@@ -43,6 +43,26 @@ sim::RobotConfig variant(double radius_left, double radius_right, double wheelba
   return r;
 }
 
+/// The node's output of one control cycle: the command, and the status when its key changed.
+void record(odometry::UahRecording& rec, const odometry::UahRun& run, double t,
+            const WheelDuties& d, std::string* key) {
+  rec.commands.push_back({t, d.left, d.right});
+  const std::string phase = std::string("odometry/") + odometry::name(run.experiment());
+  const std::string k = phase + "/" + std::to_string(run.round()) + "/" +
+                        std::to_string(run.straightRun()) + "/" +
+                        std::to_string(run.needsStraightLength());
+  if (k == *key) return;
+  *key = k;
+  odometry::UahRecording::Status s;
+  s.stamp_s = t;
+  s.phase = phase;
+  s.state = run.done() ? 2 : run.failed() ? 3 : 1;
+  s.failure_reason = run.failure();
+  s.round = run.round();
+  s.straight_run = run.straightRun();
+  rec.statuses.push_back(s);
+}
+
 }  // namespace
 
 void FloorBox::add(const sim::RobotConfig& robot, const Pose2D& pose) {
@@ -71,7 +91,7 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
   DelayedDuties delay;
   Pose2D run_start;
   bool was_driving = false;
-  std::string last;
+  std::string last, status_key;
   try {
     while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
       const double t = simulation.time_s();
@@ -79,12 +99,14 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
         std::int32_t left = simulation.encoderTicks(sim::Side::kLeft);
         std::int32_t right = simulation.encoderTicks(sim::Side::kRight);
         if (hooks.encoders) hooks.encoders(t, left, right);
+        if (hooks.recording) hooks.recording->encoders.push_back({t, left, right});
         run.addEncoders(t, left, right);
         next_encoder += encoder_dt;
       }
       if (t >= next_range) {
         double range = simulation.measureRange(rng);
         if (hooks.range) hooks.range(t, range, rng);
+        if (hooks.recording) hooks.recording->ranges.push_back({t, range});
         run.addRange(t, range);
         next_range += range_dt;
       }
@@ -97,10 +119,13 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
       if (run.needsStraightLength()) {
         const Pose2D p = simulation.pose();
         const double length = std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m);
-        run.setStraightLength(hooks.straight_length ? hooks.straight_length(length) : length);
+        const double given = hooks.straight_length ? hooks.straight_length(length) : length;
+        if (hooks.recording) hooks.recording->lengths.push_back({t, given});
+        run.setStraightLength(given);
         was_driving = false;
       }
       const WheelDuties d = run.update(t);
+      if (hooks.recording) record(*hooks.recording, run, t, d, &status_key);
       delay.apply(simulation, d);
       simulation.advance(kControlDt);
       out.floor.add(robot, simulation.pose());

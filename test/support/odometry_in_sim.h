@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/odometry/uah_replay.h"
 #include "autocal/odometry/uah_run.h"
 #include "autocal/odometry/umbmark_run.h"
 #include "autocal/sim/config.h"
@@ -50,6 +51,10 @@ struct UahSensorHooks {
   std::function<void(double t_s, double& range_m, std::mt19937_64& rng)> range;
   /// The straight run's true length [m] as measured; returns the length given to the run.
   std::function<double(double length_m)> straight_length;
+  /// When set, what a bag of the node's run would hold (the readings as the run saw them, its
+  /// commands, a status on every change of experiment, round, straight run or waiting, as the
+  /// node publishes it, and the lengths given): the input of odometry::replayUah.
+  odometry::UahRecording* recording = nullptr;
 };
 
 struct UmbmarkInSim : OdometryInSim {

@@ -176,7 +176,6 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
 
   // Each motion's experiment: the recorded status phase most seen while it moved (the node
   // publishes its status on every change of experiment, right after the command).
-  double prev_end_s = -1e300;
   int straight_index = 0;
   std::vector<double> right_ppr_left_stopped, left_ppr_right_stopped;
   double Ed = 1.0, spin_ppr = 0;
@@ -220,11 +219,13 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
                          ") drive something else: the recording does not hang together");
       }
     }
+    // The live run starts the next motion as soon as this one has settled: its data end there.
     m.end_s = settledAt(m.stop_s);
-    // The motion's data start where the live run started it: when the previous one had settled
-    // (for the first, at its first command). The robot stood still in between.
-    const double window_start_s = k == 0 ? m.start_s : std::min(m.start_s, prev_end_s);
-    prev_end_s = m.end_s;
+    if (k + 1 < spans.size()) m.end_s = std::min(m.end_s, rec.commands[spans[k + 1].first].stamp_s);
+    // The motion's data start where the live run started it: at the update that sent its first
+    // command, after that cycle's readings (UahRun::startTurn, startStraight). The robot stood
+    // still before.
+    const double window_start_s = m.start_s;
 
     std::vector<Sample> history;
     size_t i0 = 0;
@@ -266,7 +267,9 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     double n_valid = 0, sum = 0, sum2 = 0;
     size_t j = 0;
     for (const auto& r : rec.ranges) {
-      if (r.stamp_s < window_start_s || r.stamp_s > m.end_s) continue;
+      // A reading at the very start belongs to the motion before (the live run reads the sensors
+      // before it starts a motion).
+      if (r.stamp_s <= window_start_s || r.stamp_s > m.end_s) continue;
       ++turn.range_readings;
       const bool valid = std::isfinite(r.range_m) && r.range_m >= o.detection.min_range_m &&
                          r.range_m <= o.detection.max_range_m;

@@ -244,6 +244,16 @@ TEST(UahBag, BadInputIsRefusedAndNothingWritten) {
     EXPECT_TRUE(cmd.out.empty()) << c.label << ": " << cmd.out;
     EXPECT_FALSE(fs::exists(out)) << c.label << ": wrote " << out;
   }
+  // Data that do not determine a result is a failed calibration (1): a length far from what the
+  // pulses say (a run cut short, a wrong measurement).
+  const std::string out = dir + "/odometry/" + r.veh + ".yaml";
+  const Command short_length =
+      runUah("--bag " + r.bag + veh + " --straight-length-m 1.5 --out " + out);
+  std::cout << "[length far from the pulses] exit " << short_length.code << ": "
+            << short_length.err;
+  EXPECT_EQ(short_length.code, 1) << short_length.err;
+  EXPECT_NE(short_length.err.find("far from"), std::string::npos) << short_length.err;
+  EXPECT_FALSE(fs::exists(out));
   // A bad command line is a usage error (64).
   const Command usage = runUah("--bag " + r.bag);
   EXPECT_EQ(usage.code, 64) << usage.err;

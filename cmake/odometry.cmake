@@ -31,9 +31,9 @@ endif()
 
 # The UAH experiments driven by the robot (odometry::UahRun) and their test on the simulator's core.
 target_sources(autocal_core PRIVATE src/core/odometry/uah_run.cpp)
+# ... and recomputed from a recording of them (odometry::replayUah, the passive mode).
+target_sources(autocal_core PRIVATE src/core/odometry/uah_replay.cpp)
 if(CATKIN_ENABLE_TESTING)
-  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
-                     LIBS autocal_core autocal_sim_core)
 endif()
 
 # The robot's UAH stage, and the simulator's tape measure for its straight runs.
@@ -53,6 +53,14 @@ target_link_libraries(umbmark_error_helper autocal_ros)
 target_compile_options(umbmark_error_helper PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(umbmark_error_helper)
 
+# `rosrun autocal uah --bag FILE --veh NAME ...`: the UAH result from a bag, no robot, no master
+# (rosbag's C++ API and the ROS layer's message conversions).
+add_executable(uah src/nodes/uah_main.cpp)
+target_link_libraries(uah autocal_ros)
+target_compile_options(uah PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(uah)
+install(TARGETS uah RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+
 if(CATKIN_ENABLE_TESTING)
   # The UAH stage through ROS in the simulator (odometry_node.test), judged by the robot config.
   add_executable(test_odometry_node EXCLUDE_FROM_ALL test/odometry/test_odometry_node.cpp)
@@ -62,6 +70,16 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_odometry_node)
   add_rostest(test/odometry/odometry_node.test
     DEPENDENCIES test_odometry_node odometry_calibration_node straight_length_helper sim_node)
+  # `uah --bag` on a recording of that run (uah_bag.test): against the live node and the truth,
+  # and its bad-input paths on copies of the bag.
+  add_executable(test_uah_bag EXCLUDE_FROM_ALL test/odometry/test_uah_bag.cpp)
+  target_link_libraries(test_uah_bag autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_uah_bag PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  target_compile_definitions(test_uah_bag PRIVATE UAH_BINARY="$<TARGET_FILE:uah>")
+  autocal_ros_target(test_uah_bag)
+  add_dependencies(tests test_uah_bag)
+  add_rostest(test/odometry/uah_bag.test
+    DEPENDENCIES test_uah_bag uah odometry_calibration_node straight_length_helper sim_node)
 endif()
 
 # UMBmark driven by the robot (odometry::UmbmarkRun), its test on the simulator's core (beside UAH
@@ -74,6 +92,11 @@ if(CATKIN_ENABLE_TESTING)
   target_compile_definitions(autocal_odometry_test_support PRIVATE
     AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
   autocal_core_gtest(test_umbmark_run_in_sim SOURCES test/odometry/test_umbmark_run_in_sim.cpp
+                     LIBS autocal_odometry_test_support)
+  autocal_core_gtest(test_uah_run_in_sim SOURCES test/odometry/test_uah_run_in_sim.cpp
+                     LIBS autocal_odometry_test_support)
+  # The passive mode (odometry::replayUah) on recordings of those runs.
+  autocal_core_gtest(test_uah_replay SOURCES test/odometry/test_uah_replay.cpp
                      LIBS autocal_odometry_test_support)
 endif()
 if(CATKIN_ENABLE_TESTING)

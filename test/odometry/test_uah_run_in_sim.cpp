@@ -6,17 +6,15 @@
 // true pulses per round; a symmetric world is refused with a clear reason.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <deque>
+#include <memory>
 #include <random>
 
-#include "autocal/errors.h"
 #include "autocal/odometry/uah_run.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/simulation.h"
+#include "support/odometry_in_sim.h"
 
 using namespace autocal;
 using odometry::UahExperiment;
@@ -30,14 +28,7 @@ sim::WorldConfig world(const std::string& name) {
   return sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/" + name);
 }
 
-struct Outcome {
-  bool done = false;
-  std::string failure;
-  odometry::UahResult result;
-  std::vector<odometry::UahTurn> turns;
-  std::vector<odometry::StraightRun> straight_runs;
-  double sim_s = 0, wall_s = 0;
-};
+using Outcome = test::UahInSim;
 
 /// Faults injected between the simulator and the run (what bad drivers or a bad setup produce).
 enum class Fault {
@@ -48,94 +39,50 @@ enum class Fault {
   kHalfLengthGiven,  ///< the straight run's length given is half the true one
 };
 
+/// The fault as hooks of the shared loop (test/support/odometry_in_sim.h: the node's 50 Hz loop,
+/// a command applied one cycle after the readings it came from, as through ROS).
+test::UahSensorHooks hooksFor(Fault fault) {
+  test::UahSensorHooks hooks;
+  switch (fault) {
+    case Fault::kNone:
+      break;
+    case Fault::kEncoderReset:
+    case Fault::kFrozenEncoders: {
+      const double from_s = fault == Fault::kEncoderReset ? 20 : 10;
+      struct Held {
+        bool set = false;
+        std::int32_t left = 0, right = 0;
+      };
+      auto held = std::make_shared<Held>();
+      hooks.encoders = [fault, from_s, held](double t, std::int32_t& left, std::int32_t& right) {
+        if (t < from_s) return;
+        if (!held->set) *held = {true, left, right};
+        if (fault == Fault::kFrozenEncoders) {
+          left = held->left, right = held->right;
+        } else {
+          left -= held->left, right -= held->right;
+        }
+      };
+      break;
+    }
+    case Fault::kRangeDropouts:
+      hooks.range = [](double t, double& range_m, std::mt19937_64& rng) {
+        if (t >= 10 && std::uniform_real_distribution<double>(0, 1)(rng) < 0.6) range_m = INFINITY;
+      };
+      break;
+    case Fault::kHalfLengthGiven:
+      hooks.straight_length = [](double length_m) { return length_m / 2; };
+      break;
+  }
+  return hooks;
+}
+
 Outcome runUahInSim(const sim::RobotConfig& robot, const sim::WorldConfig& w,
                     const odometry::UahRunOptions& options, uint64_t seed = 1,
                     double max_sim_s = 900, Fault fault = Fault::kNone) {
-  const auto wall0 = std::chrono::steady_clock::now();
   sim::Simulation simulation(robot, w, sim::SimulationOptions());
   std::mt19937_64 rng(seed);
-  odometry::UahRun run(options);
-  Outcome out;
-  const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
-  // The node's loop: 50 Hz, and a command applies one cycle after the readings it came from
-  // (message latency), as through ROS.
-  const double control_dt = 0.02, encoder_dt = 1.0 / robot.encoder_rate_hz,
-               range_dt = 1.0 / robot.range_sensor.rate_hz;
-  double next_encoder = 0, next_range = 0;
-  bool reset = false;
-  std::deque<WheelDuties> pending;
-  const size_t delay_cycles =
-      std::getenv("AUTOCAL_DELAY") ? std::atoi(std::getenv("AUTOCAL_DELAY")) : 1;
-  int32_t l0 = 0, r0 = 0;
-  Pose2D run_start;
-  bool was_straight_driving = false;
-  std::string last;
-  try {
-    while (simulation.time_s() < max_sim_s && !run.done()) {
-      const double t = simulation.time_s();
-      if (t >= next_encoder) {
-        int32_t left = simulation.encoderTicks(sim::Side::kLeft);
-        int32_t right = simulation.encoderTicks(sim::Side::kRight);
-        if (fault == Fault::kFrozenEncoders && t >= 10) {
-          if (!reset) reset = true, l0 = left, r0 = right;
-          left = l0, right = r0;
-        }
-        if (fault == Fault::kEncoderReset && t >= 20) {
-          if (!reset) reset = true, l0 = left, r0 = right;
-          left -= l0, right -= r0;
-        }
-        run.addEncoders(t, left, right);
-        next_encoder += encoder_dt;
-      }
-      if (t >= next_range) {
-        const double range = simulation.measureRange(rng);
-        const bool drop = fault == Fault::kRangeDropouts && t >= 10 &&
-                          std::uniform_real_distribution<double>(0, 1)(rng) < 0.6;
-        run.addRange(t, drop ? INFINITY : range);
-        next_range += range_dt;
-      }
-      // The straight run's true length: the axle centre's start-to-end distance (the helper that
-      // stands for the tape measure).
-      const bool straight_driving =
-          run.experiment() == UahExperiment::kStraight && !run.needsStraightLength();
-      if (straight_driving && !was_straight_driving) run_start = simulation.pose();
-      was_straight_driving = straight_driving;
-      if (run.needsStraightLength()) {
-        const Pose2D p = simulation.pose();
-        const double length = std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m);
-        run.setStraightLength(fault == Fault::kHalfLengthGiven ? length / 2 : length);
-        was_straight_driving = false;
-      }
-      const WheelDuties d = run.update(t);
-      pending.push_back(d);
-      simulation.setDuty(pending.front().left, pending.front().right);
-      if (pending.size() > delay_cycles) pending.pop_front();
-      simulation.advance(control_dt);
-      if (trace && run.describe().substr(0, 12) != last.substr(0, 12)) {
-        const Pose2D p = simulation.pose();
-        std::fprintf(stderr, "t %.1f pose (%.3f, %.3f, %.1f deg): %s\n", t, p.x_m, p.y_m,
-                     p.yaw_rad * 180 / M_PI, run.describe().c_str());
-      }
-      last = run.describe();
-      if (std::getenv("AUTOCAL_TRACE_STRAIGHT") && straight_driving &&
-          (std::getenv("AUTOCAL_TRACE_ALL") || std::fmod(t, 0.25) < control_dt / 2)) {
-        const Pose2D p = simulation.pose();
-        std::fprintf(stderr, "  t %.2f (%.3f, %.3f, %.2f deg) duties %.3f %.3f ticks %d %d\n", t,
-                     p.x_m, p.y_m, p.yaw_rad * 180 / M_PI, d.left, d.right,
-                     simulation.encoderTicks(sim::Side::kLeft),
-                     simulation.encoderTicks(sim::Side::kRight));
-      }
-    }
-  } catch (const CalibrationError& e) {
-    out.failure = e.what();
-  }
-  out.done = run.done();
-  if (out.done) out.result = run.result();
-  out.turns = run.turns();
-  out.straight_runs = run.straightRuns();
-  out.sim_s = simulation.time_s();
-  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-  return out;
+  return test::runUahInSim(simulation, options, rng, max_sim_s, hooksFor(fault));
 }
 
 odometry::UahRunOptions optionsFor(const sim::RobotConfig& robot, double nominal_radius_m,

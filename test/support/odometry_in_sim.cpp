@@ -43,6 +43,26 @@ sim::RobotConfig variant(double radius_left, double radius_right, double wheelba
   return r;
 }
 
+/// The node's output of one control cycle: the command, and the status when its key changed.
+void record(odometry::UahRecording& rec, const odometry::UahRun& run, double t,
+            const WheelDuties& d, std::string* key) {
+  rec.commands.push_back({t, d.left, d.right});
+  const std::string phase = std::string("odometry/") + odometry::name(run.experiment());
+  const std::string k = phase + "/" + std::to_string(run.round()) + "/" +
+                        std::to_string(run.straightRun()) + "/" +
+                        std::to_string(run.needsStraightLength());
+  if (k == *key) return;
+  *key = k;
+  odometry::UahRecording::Status s;
+  s.stamp_s = t;
+  s.phase = phase;
+  s.state = run.done() ? 2 : run.failed() ? 3 : 1;
+  s.failure_reason = run.failure();
+  s.round = run.round();
+  s.straight_run = run.straightRun();
+  rec.statuses.push_back(s);
+}
+
 }  // namespace
 
 void FloorBox::add(const sim::RobotConfig& robot, const Pose2D& pose) {
@@ -57,9 +77,11 @@ void FloorBox::add(const sim::RobotConfig& robot, const Pose2D& pose) {
 }
 
 UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions& options,
-                     std::mt19937_64& rng, double max_sim_s) {
+                     std::mt19937_64& rng, double max_sim_s, const UahSensorHooks& hooks) {
   const auto wall0 = std::chrono::steady_clock::now();
   const sim::RobotConfig& robot = simulation.robot();
+  const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
+  const bool trace_straight = std::getenv("AUTOCAL_TRACE_STRAIGHT") != nullptr;
   UahInSim out;
   odometry::UahRun run(options);
   const double t0 = simulation.time_s();
@@ -69,30 +91,58 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
   DelayedDuties delay;
   Pose2D run_start;
   bool was_driving = false;
+  std::string last, status_key;
   try {
     while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
       const double t = simulation.time_s();
       if (t >= next_encoder) {
-        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
-                        simulation.encoderTicks(sim::Side::kRight));
+        std::int32_t left = simulation.encoderTicks(sim::Side::kLeft);
+        std::int32_t right = simulation.encoderTicks(sim::Side::kRight);
+        if (hooks.encoders) hooks.encoders(t, left, right);
+        if (hooks.recording) hooks.recording->encoders.push_back({t, left, right});
+        run.addEncoders(t, left, right);
         next_encoder += encoder_dt;
       }
       if (t >= next_range) {
-        run.addRange(t, simulation.measureRange(rng));
+        double range = simulation.measureRange(rng);
+        if (hooks.range) hooks.range(t, range, rng);
+        if (hooks.recording) hooks.recording->ranges.push_back({t, range});
+        run.addRange(t, range);
         next_range += range_dt;
       }
+      // The straight run's true length: the axle centre's start-to-end distance (the helper that
+      // stands for the tape measure).
       const bool driving =
           run.experiment() == odometry::UahExperiment::kStraight && !run.needsStraightLength();
       if (driving && !was_driving) run_start = simulation.pose();
       was_driving = driving;
       if (run.needsStraightLength()) {
         const Pose2D p = simulation.pose();
-        run.setStraightLength(std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m));
+        const double length = std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m);
+        const double given = hooks.straight_length ? hooks.straight_length(length) : length;
+        if (hooks.recording) hooks.recording->lengths.push_back({t, given});
+        run.setStraightLength(given);
         was_driving = false;
       }
-      delay.apply(simulation, run.update(t));
+      const WheelDuties d = run.update(t);
+      if (hooks.recording) record(*hooks.recording, run, t, d, &status_key);
+      delay.apply(simulation, d);
       simulation.advance(kControlDt);
       out.floor.add(robot, simulation.pose());
+      if (trace && run.describe().substr(0, 12) != last.substr(0, 12)) {
+        const Pose2D p = simulation.pose();
+        std::fprintf(stderr, "t %.1f pose (%.3f, %.3f, %.1f deg): %s\n", t, p.x_m, p.y_m,
+                     p.yaw_rad * 180 / M_PI, run.describe().c_str());
+      }
+      if (trace) last = run.describe();
+      if (trace_straight && driving &&
+          (std::getenv("AUTOCAL_TRACE_ALL") || std::fmod(t, 0.25) < kControlDt / 2)) {
+        const Pose2D p = simulation.pose();
+        std::fprintf(stderr, "  t %.2f (%.3f, %.3f, %.2f deg) duties %.3f %.3f ticks %d %d\n", t,
+                     p.x_m, p.y_m, p.yaw_rad * 180 / M_PI, d.left, d.right,
+                     simulation.encoderTicks(sim::Side::kLeft),
+                     simulation.encoderTicks(sim::Side::kRight));
+      }
     }
   } catch (const Error& e) {
     out.failure = e.what();
@@ -100,6 +150,8 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
   simulation.setDuty(0, 0);
   out.done = run.done();
   if (out.done) out.result = run.result();
+  out.turns = run.turns();
+  out.straight_runs = run.straightRuns();
   out.sim_s = simulation.time_s() - t0;
   out.wall_s = wallSince(wall0);
   return out;

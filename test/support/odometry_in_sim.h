@@ -5,10 +5,13 @@
 // here, as a ground-truth helper gives them through ROS. The caller compares with the truth.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "autocal/odometry/uah_replay.h"
 #include "autocal/odometry/uah_run.h"
 #include "autocal/odometry/umbmark_run.h"
 #include "autocal/sim/config.h"
@@ -35,6 +38,23 @@ struct OdometryInSim {
 
 struct UahInSim : OdometryInSim {
   odometry::UahResult result;
+  std::vector<odometry::UahTurn> turns;              ///< also when the run failed
+  std::vector<odometry::StraightRun> straight_runs;  ///< also when the run failed
+};
+
+/// Faults injected between the simulator and the run (what bad drivers or a bad setup produce):
+/// each hook, when set, may alter a reading before the run sees it. Times are simulated [s].
+struct UahSensorHooks {
+  /// The encoder counts read at t_s.
+  std::function<void(double t_s, std::int32_t& left, std::int32_t& right)> encoders;
+  /// A range reading [m] taken at t_s (the run's rng, for random dropouts).
+  std::function<void(double t_s, double& range_m, std::mt19937_64& rng)> range;
+  /// The straight run's true length [m] as measured; returns the length given to the run.
+  std::function<double(double length_m)> straight_length;
+  /// When set, what a bag of the node's run would hold (the readings as the run saw them, its
+  /// commands, a status on every change of experiment, round, straight run or waiting, as the
+  /// node publishes it, and the lengths given): the input of odometry::replayUah.
+  odometry::UahRecording* recording = nullptr;
 };
 
 struct UmbmarkInSim : OdometryInSim {
@@ -43,8 +63,10 @@ struct UmbmarkInSim : OdometryInSim {
 };
 
 /// Runs UAH on `simulation` from where its robot stands until done, failed or max_sim_s more.
+/// AUTOCAL_TRACE=1 prints each change of experiment, AUTOCAL_TRACE_STRAIGHT=1 the straight runs.
 UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions& options,
-                     std::mt19937_64& rng, double max_sim_s = 900);
+                     std::mt19937_64& rng, double max_sim_s = 900,
+                     const UahSensorHooks& hooks = UahSensorHooks());
 
 /// Runs UMBmark on `simulation` from where its robot stands. Each run's return error is the
 /// truth: the axle centre's end relative to its start, in the start pose's frame, minus the

@@ -1,0 +1,331 @@
+// rosrun autocal uah --bag FILE --veh NAME [--straight-length-m 3.0 ...] [--out PATH]
+// The UAH odometry calibration (paper 002 §2) recomputed from a bag of a run of
+// odometry_calibration_node, no robot and no master: the passive mode (odometry::replayUah). Prints
+// the result as YAML and optionally writes the odometry calibration file. README "Odometry
+// calibration node".
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <std_msgs/Float64.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "autocal/errors.h"
+#include "autocal/exit_codes.h"
+#include "autocal/io/format.h"
+#include "autocal/odometry/calibration_file.h"
+#include "autocal/odometry/uah_replay.h"
+#include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/msgs.h"
+
+namespace {
+
+using namespace autocal;
+using namespace autocal::odometry;
+
+const char* kUsage =
+    "usage: uah --bag FILE --veh NAME [--straight-length-m L_m ...] [--out PATH]\n"
+    "           [--wheel-radius-m 0.0318] [--wheelbase-m 0.1] [--ticks-per-revolution N]\n"
+    "           [--rounds 3] [--max-heading-deviation-rad 0.0349]\n"
+    "  Recomputes the UAH result from a bag of odometry_calibration_node's run: the topics\n"
+    "  /NAME/left_wheel_encoder_node/tick, /NAME/right_wheel_encoder_node/tick,\n"
+    "  /NAME/front_center_tof_driver_node/range, /NAME/wheels_driver_node/wheels_cmd and\n"
+    "  /NAME/calibration/status. Commands nothing.\n"
+    "  --straight-length-m: the straight runs' true lengths (metres): once for every run, or once\n"
+    "  per run in order (repeat it, or a comma-separated list). Default: the lengths recorded on\n"
+    "  /NAME/odometry_calibration_node/straight_length.\n"
+    "  --wheel-radius-m, --wheelbase-m: the nominal robot the live run was given (its defaults);\n"
+    "  --ticks-per-revolution: default from the encoder messages.\n"
+    "  --out writes the odometry calibration file (odometry/NAME.yaml) atomically.\n";
+
+struct Args {
+  std::string bag, veh, out;
+  std::vector<double> lengths_m;
+  double wheel_radius_m = 0.0318, wheelbase_m = 0.1, max_heading_deviation_rad = NAN;
+  int ticks_per_revolution = 0, rounds = 0;
+  bool help = false;
+};
+
+double parseNumber(const std::string& flag, const std::string& text) {
+  size_t used = 0;
+  double v = NAN;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v)) {
+    throw UsageError(flag + ": expected a number, got '" + text + "'");
+  }
+  return v;
+}
+
+Args parseArgs(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    if (flag == "-h" || flag == "--help") {
+      a.help = true;
+      continue;
+    }
+    if (i + 1 >= argc) throw UsageError(flag + ": missing value (or unknown option)");
+    const std::string value = argv[++i];
+    if (flag == "--bag") {
+      a.bag = value;
+    } else if (flag == "--veh") {
+      a.veh = value;
+    } else if (flag == "--out") {
+      a.out = value;
+    } else if (flag == "--straight-length-m") {
+      std::stringstream list(value);
+      std::string item;
+      while (std::getline(list, item, ',')) {
+        const double l = parseNumber(flag, item);
+        if (l <= 0) throw UsageError(flag + ": a length must be > 0 [m], got '" + item + "'");
+        a.lengths_m.push_back(l);
+      }
+    } else if (flag == "--wheel-radius-m") {
+      a.wheel_radius_m = parseNumber(flag, value);
+    } else if (flag == "--wheelbase-m") {
+      a.wheelbase_m = parseNumber(flag, value);
+    } else if (flag == "--ticks-per-revolution") {
+      a.ticks_per_revolution = static_cast<int>(parseNumber(flag, value));
+    } else if (flag == "--rounds") {
+      a.rounds = static_cast<int>(parseNumber(flag, value));
+    } else if (flag == "--max-heading-deviation-rad") {
+      a.max_heading_deviation_rad = parseNumber(flag, value);
+    } else {
+      throw UsageError("unknown option " + flag);
+    }
+  }
+  if (a.help) return a;
+  if (a.bag.empty()) throw UsageError("--bag FILE is required");
+  if (a.veh.empty() || a.veh.find('/') != std::string::npos) {
+    throw UsageError("--veh NAME (the robot's namespace, without '/') is required");
+  }
+  if (!(a.wheel_radius_m > 0) || !(a.wheelbase_m > 0)) {
+    throw UsageError("--wheel-radius-m and --wheelbase-m must be > 0");
+  }
+  return a;
+}
+
+/// The header stamp, or the bag's record time when the header has none.
+double stampOf(const rosbag::MessageInstance& m, const ros::Time& header_stamp) {
+  return header_stamp.isZero() ? m.getTime().toSec() : header_stamp.toSec();
+}
+
+struct BagContents {
+  UahRecording recording;
+  int ticks_per_revolution = 0;
+};
+
+BagContents readBag(const std::string& path, const std::string& veh) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": no such file");
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagUnindexedException& e) {
+    throw InputError(path + ": the bag has no index (truncated, or its recording was killed): " +
+                     "`rosbag reindex` it first (" + e.what() + ")");
+  } catch (const rosbag::BagException& e) {
+    throw InputError(path +
+                     ": cannot open the bag (not a bag, truncated or corrupt?): " + e.what());
+  }
+  const std::string ns = "/" + veh + "/";
+  const std::string left = ns + "left_wheel_encoder_node/tick",
+                    right = ns + "right_wheel_encoder_node/tick",
+                    range = ns + "front_center_tof_driver_node/range",
+                    cmd = ns + "wheels_driver_node/wheels_cmd", status = ns + "calibration/status",
+                    length = ns + "odometry_calibration_node/straight_length";
+  std::set<std::string> present;
+  std::string listing;
+  {
+    rosbag::View all(bag);
+    for (const rosbag::ConnectionInfo* c : all.getConnections()) {
+      if (present.insert(c->topic).second) listing += "\n  " + c->topic + " (" + c->datatype + ")";
+    }
+  }
+  std::string missing;
+  for (const std::string& t : {left, right, range, cmd, status}) {
+    if (!present.count(t)) missing += (missing.empty() ? "" : ", ") + t;
+  }
+  if (!missing.empty()) {
+    throw InputError(path + ": no " + missing + " in the bag (is --veh " + veh +
+                     " right?); the bag has:" + (listing.empty() ? " nothing" : listing));
+  }
+  BagContents out;
+  UahRecording& rec = out.recording;
+  struct Tick {
+    double stamp_s;
+    std::int32_t ticks;
+  };
+  std::vector<Tick> wheel[2];  // left, right
+  rosbag::View view(bag, rosbag::TopicQuery({left, right, range, cmd, status, length}));
+  auto wrongType = [&](const rosbag::MessageInstance& m, const char* expected) {
+    return InputError(path + ": " + m.getTopic() + " carries " + m.getDataType() + ", not " +
+                      expected);
+  };
+  try {
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == left || topic == right) {
+        const auto msg = m.instantiate<dtmsg::WheelEncoderStamped>();
+        if (!msg) throw wrongType(m, "WheelEncoderStamped");
+        const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
+        out.ticks_per_revolution = r.ticks_per_revolution;
+        wheel[topic == left ? 0 : 1].push_back({stampOf(m, msg->header.stamp), r.ticks});
+      } else if (topic == range) {
+        const auto msg = m.instantiate<sensor_msgs::Range>();
+        if (!msg) throw wrongType(m, "sensor_msgs/Range");
+        const RangeReading r = ros_layer::fromRangeMsg(*msg);
+        rec.ranges.push_back({stampOf(m, msg->header.stamp), r.range_m});
+      } else if (topic == cmd) {
+        const auto msg = m.instantiate<dtmsg::WheelsCmdStamped>();
+        if (!msg) throw wrongType(m, "WheelsCmdStamped");
+        const WheelDuties d = ros_layer::fromWheelsCmd(*msg);
+        rec.commands.push_back({stampOf(m, msg->header.stamp), d.left, d.right});
+      } else if (topic == status) {
+        const auto msg = m.instantiate<autocal::CalibrationStatus>();
+        if (!msg) throw wrongType(m, "autocal/CalibrationStatus");
+        UahRecording::Status s;
+        s.stamp_s = stampOf(m, msg->header.stamp);
+        s.phase = msg->phase;
+        s.state = msg->state;
+        s.failure_reason = msg->failure_reason;
+        for (size_t i = 0; i < msg->figure_names.size() && i < msg->figure_values.size(); ++i) {
+          if (msg->figure_names[i] == "round") s.round = msg->figure_values[i];
+          if (msg->figure_names[i] == "straight_run") s.straight_run = msg->figure_values[i];
+        }
+        rec.statuses.push_back(s);
+      } else if (topic == length) {
+        const auto msg = m.instantiate<std_msgs::Float64>();
+        if (!msg) throw wrongType(m, "std_msgs/Float64");
+        rec.lengths.push_back({m.getTime().toSec(), msg->data});
+      }
+    }
+  } catch (const rosbag::BagException& e) {
+    throw InputError(path +
+                     ": the bag cannot be read to its end (truncated or corrupt?): " + e.what());
+  }
+  // The two wheels' readings in the order of their stamps (the bag holds them in the order the
+  // recorder received them, which a loaded machine shuffles): as the node's EncoderInput, every
+  // reading, once both wheels reported, is a reading of both (the latest of each); readings of
+  // one stamp are merged by replayUah.
+  for (auto& w : wheel) {
+    std::stable_sort(w.begin(), w.end(),
+                     [](const Tick& a, const Tick& b) { return a.stamp_s < b.stamp_s; });
+  }
+  size_t i = 0, j = 0;
+  while (i < wheel[0].size() || j < wheel[1].size()) {
+    const bool take_left =
+        j >= wheel[1].size() || (i < wheel[0].size() && wheel[0][i].stamp_s <= wheel[1][j].stamp_s);
+    const Tick& t = take_left ? wheel[0][i++] : wheel[1][j++];
+    if (i == 0 || j == 0) continue;  // until both wheels reported
+    rec.encoders.push_back({t.stamp_s, wheel[0][i - 1].ticks, wheel[1][j - 1].ticks});
+  }
+  if (rec.encoders.empty()) {
+    throw InputError(path + ": no reading of both encoders in the bag");
+  }
+  return out;
+}
+
+std::string yamlString(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+int run(int argc, char** argv) {
+  const Args args = parseArgs(argc, argv);
+  if (args.help) {
+    std::cout << kUsage;
+    return 0;
+  }
+  const BagContents bag = readBag(args.bag, args.veh);
+  const int resolution =
+      args.ticks_per_revolution > 0 ? args.ticks_per_revolution : bag.ticks_per_revolution;
+  UahReplayOptions options;
+  options.run.nominal =
+      DiffDriveParams::fromWheel(2 * args.wheel_radius_m, resolution, args.wheelbase_m);
+  if (args.rounds > 0) options.run.rounds = args.rounds;
+  if (std::isfinite(args.max_heading_deviation_rad)) {
+    options.run.straight.max_heading_deviation_rad = args.max_heading_deviation_rad;
+  }
+  options.straight_lengths_m = args.lengths_m;
+  const UahReplayResult replay = replayUah(bag.recording, options);
+  const UahResult& r = replay.result;
+  const OdometryCalibration calibration = r.toOdometryCalibration(args.veh);
+  const DiffDriveMultipliers m = calibration.multipliers();
+
+  std::ostringstream y;
+  auto kv = [&](const char* key, double v) { y << key << ": " << formatNumber(v) << "\n"; };
+  y << "method: uah\n";
+  y << "source: passive (bag)\n";
+  y << "bag: " << yamlString(args.bag) << "\n";
+  y << "vehicle: " << args.veh << "\n";
+  y << "recorded_run: " << yamlString(replay.recorded_outcome) << "\n";
+  kv("recording_s", replay.recording_s);
+  kv("Ed", r.ed.Ed);
+  kv("Eb", calibration.Eb);
+  kv("wheelbase_m", r.calibrated.wheelbase_m);
+  kv("wheelbase_nominal_m", r.nominal.wheelbase_m);
+  kv("left_m_per_pulse", r.calibrated.left_m_per_pulse);
+  kv("right_m_per_pulse", r.calibrated.right_m_per_pulse);
+  kv("left_wheel_radius_multiplier", m.left_wheel_radius_multiplier);
+  kv("right_wheel_radius_multiplier", m.right_wheel_radius_multiplier);
+  kv("wheel_separation_multiplier", m.wheel_separation_multiplier);
+  kv("right_pulses_per_round_left_stopped", r.ed.right_pulses_per_round);
+  kv("left_pulses_per_round_right_stopped", r.ed.left_pulses_per_round);
+  kv("pivot_radius_m", r.wheelbase.pivot_radius_m);
+  y << "turns:\n";
+  size_t t = 0;
+  for (const UahReplayMotion& motion : replay.motions) {
+    if (motion.experiment == UahExperiment::kStraight) continue;
+    const UahTurn& turn = replay.turns.at(t++);
+    y << "  - {experiment: " << name(turn.experiment)
+      << ", start_s: " << formatNumber(motion.start_s, 7)
+      << ", pulses_per_round: " << formatNumber(turn.detection.pulses_per_round)
+      << ", rounds_used: " << turn.detection.rounds_used
+      << ", recorded_rounds: " << motion.recorded_round
+      << ", peak_correlation: " << formatNumber(turn.detection.peak_correlation, 4) << "}\n";
+  }
+  y << "straight_runs:\n";
+  y << "  lengths: " << replay.lengths_source << "\n";
+  y << "  runs:\n";
+  size_t s = 0;
+  for (const UahReplayMotion& motion : replay.motions) {
+    if (motion.experiment != UahExperiment::kStraight) continue;
+    const StraightRun& run = replay.straight_runs.at(s);
+    const bool accepted =
+        std::find(r.straight.accepted_runs.begin(), r.straight.accepted_runs.end(),
+                  static_cast<int>(s)) != r.straight.accepted_runs.end();
+    ++s;
+    y << "    - {start_s: " << formatNumber(motion.start_s, 7)
+      << ", length_m: " << formatNumber(run.length_m)
+      << ", right_pulses: " << formatNumber(run.right_pulses)
+      << ", heading_deviation_deg: " << formatNumber(run.max_heading_deviation_rad * 180 / M_PI, 3)
+      << ", accepted: " << (accepted ? "true" : "false") << "}\n";
+  }
+  if (!args.out.empty()) {
+    writeOdometryCalibration(args.out, calibration);  // the quality gate first; atomic
+    y << "written: " << args.out << "\n";
+  }
+  std::cout << y.str();
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return autocal::runCommand(
+      "uah", [&] { return run(argc, argv); }, kUsage);
+}

@@ -1,0 +1,207 @@
+// odometry::replayUah (the passive mode, paper 002 §2 from a recording) on runs of UahRun on the
+// simulator's core: the shared loop (test/support/odometry_in_sim.h) records what a bag of the
+// node's run would hold, the replay recomputes the result from it and is compared with the live
+// run's result and with the robot config's truth (issue 11's bounds). Then recordings that cannot
+// carry the result: each an InputError with its reason.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/odometry/uah_replay.h"
+#include "support/odometry_in_sim.h"
+
+using namespace autocal;
+using odometry::UahExperiment;
+
+namespace {
+
+odometry::UahRunOptions optionsFor(const test::OdometryTestRobot& r) {
+  odometry::UahRunOptions o;
+  o.nominal = odometry::DiffDriveParams::fromWheel(
+      2 * r.nominal_radius_m, r.robot.encoder_resolution, r.nominal_wheelbase_m);
+  return o;
+}
+
+struct Recorded {
+  test::UahInSim live;
+  odometry::UahRecording recording;
+  odometry::UahRunOptions options;
+};
+
+Recorded recordRun(const test::OdometryTestRobot& r) {
+  Recorded out;
+  sim::Simulation simulation(
+      r.robot,
+      sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world_odometry.yaml"),
+      sim::SimulationOptions());
+  std::mt19937_64 rng(1);
+  test::UahSensorHooks hooks;
+  hooks.recording = &out.recording;
+  out.options = optionsFor(r);
+  out.live = test::runUahInSim(simulation, out.options, rng, 900, hooks);
+  return out;
+}
+
+const Recorded& defaultRun() {
+  static const Recorded run = recordRun(test::odometryTestRobots().front());
+  return run;
+}
+
+odometry::UahReplayOptions replayOptions(const Recorded& r) {
+  odometry::UahReplayOptions o;
+  o.run = r.options;
+  return o;
+}
+
+class UahReplayRobots : public ::testing::TestWithParam<int> {};
+
+TEST_P(UahReplayRobots, RecomputesTheLiveResultFromTheRecording) {
+  const test::OdometryTestRobot robot = test::odometryTestRobots().at(GetParam());
+  const Recorded rec = GetParam() == 0 ? defaultRun() : recordRun(robot);
+  ASSERT_TRUE(rec.live.done) << rec.live.failure;
+  const odometry::UahReplayResult replay = odometry::replayUah(rec.recording, replayOptions(rec));
+  const odometry::UahResult& live = rec.live.result;
+  const odometry::UahResult& bag = replay.result;
+  EXPECT_EQ(replay.recorded_outcome, "done");
+  EXPECT_EQ(replay.lengths_source, "recorded");
+  ASSERT_EQ(replay.turns.size(), rec.live.turns.size());
+  for (size_t i = 0; i < replay.turns.size(); ++i) {
+    if (std::getenv("AUTOCAL_TRACE"))
+      std::printf(
+          "turn %zu: live %.3f pulses turned, %d readings (%d invalid); replay %.3f, %d (%d), "
+          "motion %.3f-%.3f-%.3f\n",
+          i, rec.live.turns[i].pulses_turned, rec.live.turns[i].range_readings,
+          rec.live.turns[i].invalid_readings, replay.turns[i].pulses_turned,
+          replay.turns[i].range_readings, replay.turns[i].invalid_readings,
+          replay.motions[i].start_s, replay.motions[i].stop_s, replay.motions[i].end_s);
+    EXPECT_EQ(replay.turns[i].experiment, rec.live.turns[i].experiment);
+    // The same readings, cut where the recorded commands and status say: the same round.
+    EXPECT_NEAR(replay.turns[i].detection.pulses_per_round,
+                rec.live.turns[i].detection.pulses_per_round, 1e-9)
+        << odometry::name(replay.turns[i].experiment);
+  }
+  ASSERT_EQ(replay.straight_runs.size(), rec.live.straight_runs.size());
+  for (size_t i = 0; i < replay.straight_runs.size(); ++i) {
+    if (std::getenv("AUTOCAL_TRACE"))
+      std::printf("straight %zu: live %.0f pulses, %.3f deg; replay %.0f, %.3f deg\n", i,
+                  rec.live.straight_runs[i].right_pulses,
+                  rec.live.straight_runs[i].max_heading_deviation_rad * 180 / M_PI,
+                  replay.straight_runs[i].right_pulses,
+                  replay.straight_runs[i].max_heading_deviation_rad * 180 / M_PI);
+    EXPECT_EQ(replay.straight_runs[i].right_pulses, rec.live.straight_runs[i].right_pulses);
+    EXPECT_NEAR(replay.straight_runs[i].max_heading_deviation_rad,
+                rec.live.straight_runs[i].max_heading_deviation_rad, 1e-12);
+  }
+  const auto rel = [](double a, double b) { return a / b - 1; };
+  const double c = 2 * M_PI / robot.robot.encoder_resolution;
+  std::printf(
+      "[%s] replay vs live: Ed %+.4f %%, b %+.4f %%, c_L %+.4f %%, c_R %+.4f %%; vs truth: Ed "
+      "%+.3f %%, b %+.3f %%, c_R %+.3f %%\n",
+      robot.label.c_str(), 100 * rel(bag.ed.Ed, live.ed.Ed),
+      100 * rel(bag.calibrated.wheelbase_m, live.calibrated.wheelbase_m),
+      100 * rel(bag.calibrated.left_m_per_pulse, live.calibrated.left_m_per_pulse),
+      100 * rel(bag.calibrated.right_m_per_pulse, live.calibrated.right_m_per_pulse),
+      100 * rel(bag.ed.Ed, test::trueEd(robot.robot)),
+      100 * rel(bag.calibrated.wheelbase_m, robot.robot.wheelbase),
+      100 * rel(bag.calibrated.right_m_per_pulse, c * robot.robot.wheel_radius_right));
+  // On the simulator's core the recording holds exactly what the live run saw: the same result.
+  EXPECT_LT(std::abs(rel(bag.ed.Ed, live.ed.Ed)), 1e-12);
+  EXPECT_LT(std::abs(rel(bag.calibrated.wheelbase_m, live.calibrated.wheelbase_m)), 1e-12);
+  EXPECT_LT(std::abs(rel(bag.calibrated.right_m_per_pulse, live.calibrated.right_m_per_pulse)),
+            1e-12);
+  EXPECT_LT(std::abs(rel(bag.calibrated.left_m_per_pulse, live.calibrated.left_m_per_pulse)),
+            1e-12);
+  EXPECT_LT(std::abs(rel(bag.ed.Ed, test::trueEd(robot.robot))), 0.002);
+  EXPECT_LT(std::abs(rel(bag.calibrated.wheelbase_m, robot.robot.wheelbase)), 0.005);
+  EXPECT_LT(std::abs(rel(bag.calibrated.right_m_per_pulse, c * robot.robot.wheel_radius_right)),
+            0.005);
+  EXPECT_LT(std::abs(rel(bag.calibrated.left_m_per_pulse, c * robot.robot.wheel_radius_left)),
+            0.005);
+}
+
+INSTANTIATE_TEST_SUITE_P(OdometryTestRobots, UahReplayRobots, ::testing::Values(0, 1, 2, 3));
+
+TEST(UahReplay, GivenLengthsReplaceTheRecordedOnes) {
+  const Recorded& rec = defaultRun();
+  odometry::UahReplayOptions o = replayOptions(rec);
+  for (const auto& run : rec.live.straight_runs) o.straight_lengths_m.push_back(run.length_m);
+  const auto same = odometry::replayUah(rec.recording, o);
+  EXPECT_EQ(same.lengths_source, "given");
+  const auto recorded = odometry::replayUah(rec.recording, replayOptions(rec));
+  EXPECT_DOUBLE_EQ(same.result.calibrated.right_m_per_pulse,
+                   recorded.result.calibrated.right_m_per_pulse);
+  o.straight_lengths_m = {1.5};  // one length for every run; far from the pulses: refused
+  EXPECT_THROW(odometry::replayUah(rec.recording, o), CalibrationError);
+  o.straight_lengths_m = {3.0, 3.0, 3.0};
+  EXPECT_THROW(odometry::replayUah(rec.recording, o), InputError);
+}
+
+/// The reason of the InputError the replay throws on `rec` ("" when it does not).
+std::string inputError(const odometry::UahRecording& rec, const odometry::UahReplayOptions& o) {
+  try {
+    odometry::replayUah(rec, o);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(UahReplay, RecordingsThatCannotCarryTheResultAreRefused) {
+  const Recorded& run = defaultRun();
+  const odometry::UahReplayOptions o = replayOptions(run);
+  {
+    odometry::UahRecording rec = run.recording;
+    rec.statuses.clear();
+    EXPECT_NE(inputError(rec, o).find("no calibration status"), std::string::npos);
+  }
+  {
+    // The status says the second experiment pivoted on the stopped left wheel, the commands
+    // drive the left wheel.
+    odometry::UahRecording rec = run.recording;
+    for (auto& s : rec.statuses) {
+      if (s.phase == "odometry/pivot_right_stopped") s.phase = "odometry/pivot_left_stopped";
+    }
+    EXPECT_NE(inputError(rec, o).find("drive something else"), std::string::npos)
+        << inputError(rec, o);
+  }
+  {
+    // A recording that ends before the spin.
+    odometry::UahRecording rec = run.recording;
+    const double spin_s = [&] {
+      for (const auto& s : rec.statuses)
+        if (s.phase == "odometry/spin") return s.stamp_s;
+      return 1e9;
+    }();
+    auto cut = [&](auto& v) {
+      v.erase(
+          std::remove_if(v.begin(), v.end(), [&](const auto& x) { return x.stamp_s >= spin_s; }),
+          v.end());
+    };
+    cut(rec.encoders), cut(rec.ranges), cut(rec.commands), cut(rec.statuses), cut(rec.lengths);
+    EXPECT_NE(inputError(rec, o).find("no spin"), std::string::npos) << inputError(rec, o);
+  }
+  {
+    // An encoder reset halfway.
+    odometry::UahRecording rec = run.recording;
+    const size_t half = rec.encoders.size() / 2;
+    const auto offset = rec.encoders[half];
+    for (size_t i = half; i < rec.encoders.size(); ++i) {
+      rec.encoders[i].left -= offset.left;
+      rec.encoders[i].right -= offset.right;
+    }
+    EXPECT_NE(inputError(rec, o).find("encoder jump"), std::string::npos) << inputError(rec, o);
+  }
+  {
+    // No length recorded for the last straight run, none given.
+    odometry::UahRecording rec = run.recording;
+    rec.lengths.pop_back();
+    EXPECT_NE(inputError(rec, o).find("has no length"), std::string::npos) << inputError(rec, o);
+  }
+}
+
+}  // namespace

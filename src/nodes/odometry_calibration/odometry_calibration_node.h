@@ -7,16 +7,17 @@
 // With ~method umbmark it drives UMBmark instead (odometry::UmbmarkRun): n squares clockwise, n
 // counter-clockwise on its own odometry; after each square it waits for that square's return
 // error ε = actual − computed [m] on ~return_error (geometry_msgs/Point, x and y in the square's
-// start frame) — measured by a person on a robot, or in the simulator by umbmark_error_helper from
-// sim/ground_truth — or, with ~errors_file set, it drives all squares (pausing ~run_pause_s after
+// start frame) — measured by a person on a robot, or in the simulator by umbmark_error_helper
+// (src/nodes/sim_tools/, a validation tool) — or, with ~errors_file set, it drives all squares (pausing ~run_pause_s after
 // each for the person to mark where it stopped) and then waits for that YAML file (the `umbmark`
 // command's format). Status phases odometry/umbmark_cw, odometry/umbmark_ccw, figures run, leg,
 // awaiting_error, run_start_s, computed_x_m, computed_y_m.
 //
 // The one measured input: each straight run's true start-to-end length, received on
 // ~straight_length (std_msgs/Float64, metres) while the status says the run waits for it — typed
-// by a person on a robot (`rostopic pub`), or in the simulator by straight_length_helper, which
-// reads it from sim/ground_truth (a validation tool, not part of the calibration).
+// by a person on a robot (`rostopic pub`), or in the simulator by straight_length_helper
+// (src/nodes/sim_tools/: validation tools, not part of the calibration; this node never reads the
+// simulator's state).
 //
 // Subscribes (relative to the robot's namespace): left_wheel_encoder_node/tick,
 // right_wheel_encoder_node/tick, front_center_tof_driver_node/range, ~straight_length.

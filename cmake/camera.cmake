@@ -9,6 +9,7 @@ target_sources(autocal_core PRIVATE
   src/core/camera/sweep_controller.cpp
   src/core/camera/min_duty_probe.cpp
   src/core/camera/sweep_run.cpp
+  src/core/camera/sweep_replay.cpp
   src/core/camera/debug_image.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.

@@ -3,7 +3,9 @@ target_sources(autocal_core PRIVATE
   src/core/markers/tag_detector.cpp
   src/core/wheels/tag_heading.cpp
   src/core/wheels/trim_estimator.cpp
-  src/core/wheels/wheel_run.cpp)
+  src/core/wheels/motor_fit.cpp
+  src/core/wheels/wheel_run.cpp
+  src/core/wheels/wheel_replay.cpp)
 # The wheel stage detects tags: AprilTag is linked where it is used.
 target_link_libraries(autocal_core PUBLIC apriltag::apriltag)
 

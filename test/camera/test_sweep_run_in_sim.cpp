@@ -9,7 +9,9 @@
 #include <opencv2/calib3d.hpp>
 
 #include "autocal/camera/camera_config.h"
+#include "autocal/camera/sweep_replay.h"
 #include "autocal/camera/sweep_run.h"
+#include "autocal/errors.h"
 #include "autocal/sim/config.h"
 #include "support/sweep_in_sim.h"
 
@@ -120,6 +122,77 @@ TEST(SweepRunInSim, DefaultRobotAndWorld) {
   // The probe found the deadband (0.08 in this robot) from above, within its step.
   EXPECT_GT(r.min_duty.left_forward, robot.deadband);
   EXPECT_LE(r.min_duty.left_forward, robot.deadband + 0.03);
+}
+
+/// The passive replay fed what a recording of the live run holds, as `rosbag play` would.
+struct ReplayTap : test::RecordingTap {
+  ReplayTap(const camera::SweepRunOptions& o, const camera::CameraCalibrationConfig& c)
+      : replay(o, c) {}
+  void command(double t, const WheelDuties& d) override { replay.addCommand(t, d); }
+  void encoders(double t, int l, int r, int) override { replay.addEncoders(t, l, r); }
+  bool wantsFrame(double t) override { return replay.wantsFrame(t); }
+  void frame(double t, const cv::Mat& image) override { replay.addFrame(t, image, "replay"); }
+  void phase(double t, const std::string& p) override {
+    replay.setCollecting(t, p == "camera/collect");
+  }
+  camera::SweepReplay replay;
+};
+
+// replay.launch's camera stage: from the commands, encoders, frames and phases a recording holds,
+// the replay takes one settled frame per stop of the sweep and calibrates as the live run did:
+// fx, fy within 0.2 % of the live result (the bound) and near the truth.
+void expectReplayMatches(const std::string& robot_file, const std::string& world_file) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + robot_file);
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + world_file);
+  camera::SweepRun run(runOptionsFor(robot), cameraConfigFor(world, robot));
+  ReplayTap tap(runOptionsFor(robot), cameraConfigFor(world, robot));
+  test::SweepInSimOptions options;
+  options.tap = &tap;
+  const test::SweepInSim live = test::runSweepInSim(robot, world, run, options);
+  expectNearTruth(live, robot);
+  const camera::CalibrationResult r = tap.replay.calibrate();
+  const CameraIntrinsics& e = r.intrinsics;
+  const CameraIntrinsics& l = live.result.intrinsics;
+  std::cout << "replay: " << tap.replay.describe() << "; fx " << e.fx << " (live " << l.fx
+            << ") fy " << e.fy << " (" << l.fy << ") cx " << e.cx << " (" << l.cx << ") cy " << e.cy
+            << " (" << l.cy << "), live " << live.steps << " steps " << live.sharp_views
+            << " sharp\n";
+  // One frame per stop of the sweep: the live run's steps, and the stop before the first.
+  EXPECT_NEAR(tap.replay.stops(), live.steps + 1, 1);
+  EXPECT_NEAR(e.fx, l.fx, 0.002 * l.fx);
+  EXPECT_NEAR(e.fy, l.fy, 0.002 * l.fy);
+  EXPECT_NEAR(e.cx, l.cx, 1.0);
+  EXPECT_NEAR(e.cy, l.cy, 1.0);
+  EXPECT_NEAR(e.fx, robot.camera.truth.fx, 0.003 * robot.camera.truth.fx);
+}
+
+TEST(SweepReplayInSim, DefaultRobot) { expectReplayMatches("robot.yaml", "world.yaml"); }
+
+TEST(SweepReplayInSim, WideLens) { expectReplayMatches("fleet/robot_wide.yaml", "world.yaml"); }
+
+TEST(SweepReplay, TakesOneSettledFrameAStopOnlyWhileCollecting) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  camera::SweepReplay r(runOptionsFor(robot), cameraConfigFor(world, robot));
+  const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
+  r.addEncoders(0.0, 0, 0);
+  EXPECT_FALSE(r.wantsFrame(1.0));  // the probe: not collecting
+  r.setCollecting(1.0, true);
+  EXPECT_FALSE(r.wantsFrame(1.1));  // settling
+  r.addEncoders(1.5, 0, 0);
+  EXPECT_TRUE(r.wantsFrame(1.5));
+  EXPECT_TRUE(r.addFrame(1.5, grey, "a"));
+  EXPECT_FALSE(r.wantsFrame(1.6));  // one frame a stop
+  r.addCommand(1.7, {0.0, 0.3});
+  r.addEncoders(1.8, 0, 5);
+  EXPECT_FALSE(r.wantsFrame(1.8));  // turning
+  r.addCommand(1.9, {0.0, 0.0});
+  r.addEncoders(2.25, 0, 6);  // still coasting after settle_s
+  EXPECT_FALSE(r.wantsFrame(2.25));
+  r.addEncoders(2.4, 0, 6);
+  EXPECT_TRUE(r.wantsFrame(2.4));
+  EXPECT_EQ(r.stops(), 1);
+  EXPECT_THROW(r.calibrate(), CalibrationError);  // no board in grey frames
 }
 
 struct Case {

@@ -29,20 +29,30 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
   const double frame_dt = 1.0 / robot.camera.rate_hz;
   const double encoder_dt = 1.0 / robot.encoder_rate_hz;
   double next_frame = 0, next_encoder = 0;
+  RecordingTap* tap = options.tap;
+  std::string last_phase;
   try {
     while (simulation.time_s() < options.max_sim_s && !run.swept()) {
       const double t = simulation.time_s();
       if (t >= next_encoder) {
-        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
-                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution, t);
+        const int left = simulation.encoderTicks(sim::Side::kLeft);
+        const int right = simulation.encoderTicks(sim::Side::kRight);
+        run.addEncoders(t, left, right, robot.encoder_resolution, t);
+        if (tap) tap->encoders(t, left, right, robot.encoder_resolution);
         next_encoder += encoder_dt;
       }
       if (t >= next_frame) {
         run.noteFrameArrived(t);
+        const bool tap_wants = tap && tap->wantsFrame(t);
+        cv::Mat tap_image;
+        if (tap_wants && !run.wantsFrame(t)) {
+          tap_image = renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
+          tap->frame(t, tap_image);
+        }
         if (run.wantsFrame(t)) {
           const cv::Mat image =
-
               renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
+          if (tap_wants) tap->frame(t, image);
           ++out.frames_rendered;
           timespec c0, c1;
           clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
@@ -63,6 +73,12 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
         next_frame += frame_dt;
       }
       const WheelDuties d = run.update(t);
+      if (tap) {
+        const std::string phase = std::string("camera/") + camera::name(run.stage());
+        if (phase != last_phase) tap->phase(t, phase);
+        last_phase = phase;
+        tap->command(t, d);
+      }
       simulation.setDuty(d.left, d.right);
       simulation.advance(control_dt);
     }

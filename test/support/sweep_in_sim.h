@@ -9,6 +9,7 @@
 
 #include "autocal/camera/sweep_run.h"
 #include "autocal/sim/config.h"
+#include "support/recording_tap.h"
 
 namespace autocal {
 namespace test {
@@ -19,6 +20,8 @@ struct SweepInSimOptions {
   uint64_t seed = 1;
   int max_blur_samples = 8;
   bool trace = false;  ///< one stderr line per processed frame (boards, decision, state)
+  /// Gets what a recording would hold (not owned; null: none).
+  RecordingTap* tap = nullptr;
 };
 
 struct SweepInSim {

@@ -31,6 +31,8 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
   double next_frame = 0, next_encoder = 0, next_path = 0;
   wheels::WheelRunStage last_stage = run.stage();
   size_t last_iterations = 0;
+  RecordingTap* tap = options.tap;
+  std::string last_phase;
   try {
     while (simulation.time_s() < options.max_sim_s && !run.done()) {
       const double t = simulation.time_s();
@@ -39,20 +41,33 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
         next_path += 0.1;
       }
       if (t >= next_encoder) {
-        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
-                        simulation.encoderTicks(sim::Side::kRight), robot.encoder_resolution, t);
+        const int left = simulation.encoderTicks(sim::Side::kLeft);
+        const int right = simulation.encoderTicks(sim::Side::kRight);
+        run.addEncoders(t, left, right, robot.encoder_resolution, t);
+        if (tap) tap->encoders(t, left, right, robot.encoder_resolution);
         next_encoder += encoder_dt;
       }
       if (t >= next_frame) {
         run.noteFrameArrived(t);
-        if (run.wantsFrame(t)) {
-          run.addFrame(t,
-                       renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng));
-          ++out.frames_processed;
+        const bool run_wants = run.wantsFrame(t), tap_wants = tap && tap->wantsFrame(t);
+        if (run_wants || tap_wants) {
+          const cv::Mat image =
+              renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
+          if (run_wants) {
+            run.addFrame(t, image);
+            ++out.frames_processed;
+          }
+          if (tap_wants) tap->frame(t, image);
         }
         next_frame += frame_dt;
       }
       const WheelDuties d = run.update(t);
+      if (tap) {
+        const std::string phase = std::string("wheels/") + wheels::name(run.stage());
+        if (phase != last_phase) tap->phase(t, phase);
+        last_phase = phase;
+        tap->command(t, d);
+      }
       simulation.setDuty(d.left, d.right);
       simulation.advance(control_dt);
       if (options.trace &&

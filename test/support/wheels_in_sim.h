@@ -9,6 +9,7 @@
 #include "autocal/sim/config.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal/wheels/wheel_run.h"
+#include "support/recording_tap.h"
 
 namespace autocal {
 namespace test {
@@ -19,6 +20,8 @@ struct WheelsInSimOptions {
   uint64_t seed = 1;
   int max_blur_samples = 8;
   bool trace = false;  ///< one stderr line per stage change and iteration
+  /// Gets what a recording would hold (not owned; null: none).
+  RecordingTap* tap = nullptr;
 };
 
 struct WheelsInSim {

@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "autocal/errors.h"
 #include "autocal/sim/config.h"
+#include "autocal/wheels/wheel_replay.h"
 #include "support/wheels_in_sim.h"
 
 using namespace autocal;
@@ -35,10 +37,33 @@ struct Outcome {
   std::vector<std::pair<double, double>> drift_m;  // speed, drift
 };
 
+/// The passive replay fed what a recording of the live run holds, as `rosbag play` would; the
+/// intrinsics come `intrinsics_at_s` into it (the replayed camera stage computes them meanwhile).
+struct ReplayTap : test::RecordingTap {
+  ReplayTap(const wheels::WheelRunOptions& o, const CameraIntrinsics& in, double at_s)
+      : replay(o), intrinsics(in), intrinsics_at_s(at_s) {}
+  void command(double t, const WheelDuties& d) override { replay.addCommand(t, d); }
+  void encoders(double t, int l, int r, int res) override { replay.addEncoders(t, l, r, res); }
+  bool wantsFrame(double t) override { return replay.wantsFrame(t); }
+  void frame(double t, const cv::Mat& image) override {
+    if (!replay.hasIntrinsics() && t >= intrinsics_at_s) {
+      kept_before_intrinsics = replay.framesKept();
+      replay.setIntrinsics(intrinsics);
+    }
+    replay.addFrame(t, image);
+  }
+  wheels::WheelReplay replay;
+  CameraIntrinsics intrinsics;
+  double intrinsics_at_s;
+  int kept_before_intrinsics = 0;
+};
+
 Outcome calibrateAndValidate(const sim::RobotConfig& robot, const sim::WorldConfig& world,
-                             double deadband_guess, bool trace = false) {
+                             double deadband_guess, bool trace = false,
+                             test::RecordingTap* tap = nullptr) {
   wheels::WheelRun run(optionsFor(robot, deadband_guess), robot.camera.truth);
   test::WheelsInSimOptions so;
+  so.tap = tap;
   so.trace = trace || std::getenv("AUTOCAL_TRACE") != nullptr;
   Outcome out;
   out.run = test::runWheelsInSim(robot, world, run, so);
@@ -118,4 +143,56 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   // Started alone, without the camera stage's minimum duties: the offsets start at 0.
   const sim::RobotConfig robot = variant(1.0, 1.08, 0.0325, 0.0318, 0.1);
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld());
+}
+
+// The passive replay (replay.launch's wheel stage) recomputes the live run from what a recording
+// holds: the same trim within 0.002 (issue: within 0.005) and deadbands within 0.003, and so drives
+// as straight by the truth; the intrinsics come 15 s into the recording, the frames wanted before
+// are kept and detected then.
+void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess) {
+  ReplayTap tap(optionsFor(robot, deadband_guess), robot.camera.truth, 15.0);
+  const Outcome live = calibrateAndValidate(robot, defaultWorld(), deadband_guess, false, &tap);
+  expectCalibrated(live, defaultWorld());
+  const wheels::WheelReplayResult r = tap.replay.result();
+  std::printf(
+      "replay: trim %.5f (live %.5f) deadband %.4f/%.4f (live %.4f/%.4f), %d drives, %zu "
+      "updates, %d/%d stills measured, %d frames kept before the intrinsics\n",
+      r.kinematics.trim, live.run.result.trim, r.kinematics.deadband_left,
+      r.kinematics.deadband_right, live.run.result.deadband_left, live.run.result.deadband_right,
+      r.drives, r.iterations.size(), r.measured, r.stills, tap.kept_before_intrinsics);
+  EXPECT_GT(tap.kept_before_intrinsics, 0);
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.iterations.size(), live.run.iterations.size());
+  EXPECT_NEAR(r.kinematics.trim, live.run.result.trim, 0.002);
+  EXPECT_NEAR(r.kinematics.deadband_left, live.run.result.deadband_left, 0.003);
+  EXPECT_NEAR(r.kinematics.deadband_right, live.run.result.deadband_right, 0.003);
+  EXPECT_LE(test::straightDriftM(robot, r.kinematics, 0.25), 0.02);
+}
+
+TEST(WheelReplayInSim, DefaultRobot) {
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  expectReplayMatches(robot, robot.deadband + 0.007);
+}
+
+TEST(WheelReplayInSim, LeftWheelStrongTrimPlus008WideDeadband) {
+  expectReplayMatches(variant(1.0, 0.86, 0.0318, 0.0318, 0.12), 0.126);
+}
+
+TEST(WheelReplay, ARecordingWithoutTheIterationIsAClearError) {
+  wheels::WheelReplay replay{wheels::WheelRunOptions()};
+  EXPECT_THROW(replay.result(), CalibrationError);  // no intrinsics
+  replay.setIntrinsics(robotConfig("robot.yaml").camera.truth);
+  EXPECT_THROW(replay.result(), CalibrationError);  // no encoders
+  replay.addEncoders(0.0, 0, 0, 135);
+  replay.addCommand(0.1, {0.3, 0.3});  // a drive out, never driven back: a leave, not a cycle
+  replay.addEncoders(0.5, 50, 50, 135);
+  replay.addCommand(2.0, {0.0, 0.0});
+  try {
+    replay.result();
+    FAIL() << "a recording with no drive driven back gave a result";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("no drive over the tags driven back"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(replay.addEncoders(3.0, 50, 50, 0), InputError);
 }

@@ -69,6 +69,17 @@ struct SweepRunOptions {
   void validate() const;
 };
 
+/// The camera config a sweep collects and calibrates with: `camera` with the options' coverage
+/// goal, views count and keep_sharp_views. Throws ConfigError.
+CameraCalibrationConfig sweepCameraConfig(CameraCalibrationConfig camera,
+                                          const SweepRunOptions& options);
+
+/// Calibrates the collector's calibrationViews() (Zhang's method through OpenCV) and applies the
+/// config's quality gate; throws CalibrationError when there is no view, or naming the gates the
+/// result fails.
+CalibrationResult calibrateSweepViews(const ViewCollector& collector,
+                                      const CameraCalibrationConfig& camera);
+
 enum class SweepRunStage { kWaitForData, kProbe, kSweep, kSwept, kFailed };
 const char* name(SweepRunStage stage);  ///< "wait", "probe", "collect", "calibrate", "failed"
 

@@ -26,6 +26,7 @@
 #include "autocal/markers/tag_detector.h"
 #include "autocal/sensors.h"
 #include "autocal/wheels/kinematics.h"
+#include "autocal/wheels/motor_fit.h"
 #include "autocal/wheels/tag_heading.h"
 #include "autocal/wheels/trim_estimator.h"
 
@@ -117,13 +118,19 @@ struct WheelRunOptions {
 enum class WheelRunStage { kWaitForData, kAlign, kIterate, kLeave, kDone, kFailed };
 const char* name(WheelRunStage stage);  ///< "wait", "align", "iterate", "leave", "done", "failed"
 
-/// One wheel's duty → steady speed line, from the forward drives [rad/s per duty].
-struct MotorFit {
-  bool valid = false;
-  double slope = 0;   ///< [rad/s]
-  double offset = 0;  ///< duty at which the wheel starts to turn [1]
-  int points = 0;
-};
+/// The stage's tag detector: the options' detector, searching only the rows that can show floor
+/// within reach (crop_to_floor), with the floor's normal from the mount.
+std::unique_ptr<markers::TagDetector> makeFloorTagDetector(const WheelRunOptions& options,
+                                                           const CameraIntrinsics& intrinsics);
+
+/// The motor fit's options from the run's.
+MotorFitOptions motorFitOptions(const WheelRunOptions& options);
+
+/// The wheel stage's result: `before` (gain, radius, baseline, k, limit kept) with the trim of the
+/// commanded right/left speed ratio `ratio`, and each wheel's fitted offset when compensating
+/// (the guess in `before` while a wheel's line is not fitted; 0 when not compensating).
+KinematicsParams calibratedKinematics(const KinematicsParams& before, double ratio,
+                                      const MotorFitter& fit, bool compensate_deadband);
 
 class WheelRun {
  public:
@@ -151,7 +158,7 @@ class WheelRun {
   /// fitted offsets when compensating.
   KinematicsParams result() const;
   const TrimEstimator& estimator() const { return estimator_; }
-  const MotorFit& motorFit(bool left) const { return left ? fit_left_ : fit_right_; }
+  const MotorFit& motorFit(bool left) const { return left ? fitter_.left() : fitter_.right(); }
   /// The last heading measured [rad] (NaN before the first).
   double lastHeadingRad() const { return last_heading_rad_; }
   /// Tags detected in the last processed frame.
@@ -206,17 +213,14 @@ class WheelRun {
   bool motion_clock_started_ = true;
   int drive_sign_ = 0;
   double drive_speed_mps_ = 0;
-  WheelDuties drive_duties_;
   KinematicsParams drive_params_;  // what the last forward drive drove with
-  double drive_start_s_ = 0, drive_end_s_ = 0;
-  double forward_s_ = 0;        // its commanded length
-  double drive_forward_m_ = 0;  // its distance by the encoders
-  double creep_m_ = 0;          // where the drives left the robot, along them, by the encoders
+  double forward_s_ = 0;           // its commanded length
+  double drive_forward_m_ = 0;     // its distance by the encoders
+  double creep_m_ = 0;             // where the drives left the robot, along them, by the encoders
   double ratio_error_ = 0;
   int drive_start_left_ = 0, drive_start_right_ = 0;
-  std::vector<std::array<double, 3>> drive_samples_;  // stamp, left ticks, right ticks
-  std::vector<std::array<double, 3>> fit_points_left_, fit_points_right_;  // duty, rate, weight
-  MotorFit fit_left_, fit_right_;
+  DriveRecord drive_;  // the current (last) drive's duties, times and encoder readings
+  MotorFitter fitter_;
 
   // measuring
   std::vector<TagSighting> sightings_;

@@ -59,8 +59,9 @@ const SweepRunOptions& validated(const SweepRunOptions& o) {
   return o;
 }
 
-/// The camera config with the sweep's coverage goal.
-CameraCalibrationConfig forSweep(CameraCalibrationConfig c, const SweepRunOptions& o) {
+}  // namespace
+
+CameraCalibrationConfig sweepCameraConfig(CameraCalibrationConfig c, const SweepRunOptions& o) {
   c.validate();
   for (size_t i = 0; i < o.coverage_goal.size(); ++i) {
     if (o.coverage_goal[i] >= 0) c.selection.goal_spread[i] = o.coverage_goal[i];
@@ -71,11 +72,9 @@ CameraCalibrationConfig forSweep(CameraCalibrationConfig c, const SweepRunOption
   return c;
 }
 
-}  // namespace
-
 SweepRun::SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig& camera)
     : options_(validated(options)),
-      camera_(forSweep(camera, options_)),
+      camera_(sweepCameraConfig(camera, options_)),
       controller_(options.sweep),
       probe_(options.probe),
       collector_(camera_.board, camera_.detector, camera_.selection) {
@@ -285,16 +284,16 @@ WheelDuties SweepRun::update(double now_s) {
   return duties_;
 }
 
-CalibrationResult SweepRun::calibrate() const {
-  if (!swept()) throw CalibrationError("calibrate() before the sweep ended");
+CalibrationResult calibrateSweepViews(const ViewCollector& collector,
+                                      const CameraCalibrationConfig& camera) {
   std::vector<std::vector<cv::Point2f>> corners;
-  for (const CalibrationView& v : calibrationViews()) corners.push_back(v.corners);
+  for (const CalibrationView& v : collector.calibrationViews()) corners.push_back(v.corners);
   if (corners.empty())
-    throw CalibrationError("no usable view of a " + camera_.board.describe() + " board in " +
-                           std::to_string(collector_.frames()) + " frames");
+    throw CalibrationError("no usable view of a " + camera.board.describe() + " board in " +
+                           std::to_string(collector.frames()) + " frames");
   CalibrationResult result =
-      camera::calibrate(corners, collector_.imageSize(), camera_.board, camera_.calibration);
-  const std::vector<std::string> failures = checkQuality(result, camera_.quality_gate);
+      camera::calibrate(corners, collector.imageSize(), camera.board, camera.calibration);
+  const std::vector<std::string> failures = checkQuality(result, camera.quality_gate);
   if (!failures.empty()) {
     std::string msg = "the result fails the quality gate, nothing written:";
     for (const auto& f : failures) msg += " " + f + ";";
@@ -302,6 +301,11 @@ CalibrationResult SweepRun::calibrate() const {
     throw CalibrationError(msg);
   }
   return result;
+}
+
+CalibrationResult SweepRun::calibrate() const {
+  if (!swept()) throw CalibrationError("calibrate() before the sweep ended");
+  return calibrateSweepViews(collector_, camera_);
 }
 
 double SweepRun::progress() const {

@@ -97,20 +97,27 @@ void WheelRunOptions::validate() const {
     throw ConfigError("camera_timeout_s/encoder_timeout_s/max_duration_s: must be > 0 [s]");
 }
 
-WheelRun::WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intrinsics)
-    : options_(options),
-      estimator_((options.validate(), options.trim)),
-      last_heading_rad_(std::numeric_limits<double>::quiet_NaN()) {
-  markers::TagDetectorOptions detector = options_.detector;
-  if (options_.crop_to_floor && detector.min_row_px == 0) {
+std::unique_ptr<markers::TagDetector> makeFloorTagDetector(const WheelRunOptions& options,
+                                                           const CameraIntrinsics& intrinsics) {
+  markers::TagDetectorOptions detector = options.detector;
+  if (options.crop_to_floor && detector.min_row_px == 0) {
     // A 12 px margin: a tag's far corners and the lens model's error.
     detector.min_row_px =
-        std::max(0, floorRowLimitPx(options_.mount, intrinsics.fy, intrinsics.cy, intrinsics.height,
-                                    options_.heading.max_distance_m + detector.tag_size_m) -
+        std::max(0, floorRowLimitPx(options.mount, intrinsics.fy, intrinsics.cy, intrinsics.height,
+                                    options.heading.max_distance_m + detector.tag_size_m) -
                         12);
   }
-  detector_.reset(new markers::TagDetector(detector, intrinsics));
-  detector_->setFloorNormal(options_.mount.floorUpInCamera());
+  auto d = std::make_unique<markers::TagDetector>(detector, intrinsics);
+  d->setFloorNormal(options.mount.floorUpInCamera());
+  return d;
+}
+
+WheelRun::WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intrinsics)
+    : options_(options),
+      detector_(makeFloorTagDetector((options.validate(), options), intrinsics)),
+      estimator_(options.trim),
+      fitter_(motorFitOptions(options)),
+      last_heading_rad_(std::numeric_limits<double>::quiet_NaN()) {
   ratio_error_ = options_.initial_ratio_error;
 }
 
@@ -130,7 +137,7 @@ void WheelRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
   right_ = right_ticks;
   ticks_per_rev_ = ticks_per_revolution;
   if (motion_ == Motion::kDrive)
-    drive_samples_.push_back({stamp_s, double(left_ticks), double(right_ticks)});
+    drive_.samples.push_back({stamp_s, double(left_ticks), double(right_ticks)});
 }
 
 void WheelRun::noteEncodersArrived(double) { updates_without_encoders_ = 0; }
@@ -153,16 +160,31 @@ void WheelRun::fail(const std::string& why) {
   throw CalibrationError(why);
 }
 
-KinematicsParams WheelRun::driveParams() const {
-  KinematicsParams p = options_.kinematics;
-  p.trim = trimFromSpeedRatio(estimator_.ratio(), p.gain);
-  if (!options_.compensate_deadband) {
+MotorFitOptions motorFitOptions(const WheelRunOptions& o) {
+  MotorFitOptions m;
+  m.motor_settle_s = o.motor_settle_s;
+  m.min_fit_window_s = o.min_fit_window_s;
+  m.fit_drives = o.fit_drives;
+  m.max_fit_residual = o.max_fit_residual;
+  return m;
+}
+
+KinematicsParams calibratedKinematics(const KinematicsParams& before, double ratio,
+                                      const MotorFitter& fit, bool compensate_deadband) {
+  KinematicsParams p = before;
+  p.trim = trimFromSpeedRatio(ratio, p.gain);
+  if (!compensate_deadband) {
     p.deadband_left = p.deadband_right = 0;
   } else {
-    if (fit_left_.valid) p.deadband_left = fit_left_.offset;
-    if (fit_right_.valid) p.deadband_right = fit_right_.offset;
+    if (fit.left().valid) p.deadband_left = fit.left().offset;
+    if (fit.right().valid) p.deadband_right = fit.right().offset;
   }
   return p;
+}
+
+KinematicsParams WheelRun::driveParams() const {
+  return calibratedKinematics(options_.kinematics, estimator_.ratio(), fitter_,
+                              options_.compensate_deadband);
 }
 
 KinematicsParams WheelRun::result() const { return driveParams(); }
@@ -171,7 +193,8 @@ double WheelRun::driveSeconds(double speed_mps) const {
   // A ratio error e turns the robot by about e·distance/baseline over a drive.
   // Until both deadbands are fitted the ratio depends on the speed, and the next drive's speed
   // differs from the last one's: expect at least 5 %.
-  const bool fitted = !options_.compensate_deadband || (fit_left_.valid && fit_right_.valid);
+  const bool fitted =
+      !options_.compensate_deadband || (fitter_.left().valid && fitter_.right().valid);
   const double error = fitted ? ratio_error_ : std::max(ratio_error_, 0.05);
   const double s = options_.max_drive_turn_rad * options_.kinematics.baseline / (error * speed_mps);
   return std::clamp(s, options_.min_drive_s, options_.drive_s);
@@ -217,15 +240,15 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   const KinematicsParams p = drive_params_ = driveParams();
   const double w = speed_mps / p.radius;
   const WheelDuties d = speedsToDuties(p, {w, w});
-  drive_duties_ = d;
   drive_sign_ = sign;
   drive_speed_mps_ = speed_mps;
   duties_ = {sign * d.left, sign * d.right};
   motion_ = Motion::kDrive;
-  drive_start_s_ = now_s;
+  drive_ = DriveRecord();
+  drive_.duties = d;
+  drive_.start_s = now_s;
   drive_start_left_ = left_;
   drive_start_right_ = right_;
-  drive_samples_.clear();
   startMotionClock(driveSeconds(speed_mps));
 }
 
@@ -245,7 +268,7 @@ double WheelRun::driveDistanceM() const {
 }
 
 void WheelRun::stopMotion(double now_s) {
-  if (motion_ == Motion::kDrive) drive_end_s_ = now_s;
+  if (motion_ == Motion::kDrive) drive_.end_s = now_s;
   duties_ = {};
   motion_ = Motion::kSettle;
   stop_s_ = now_s;
@@ -258,68 +281,7 @@ bool WheelRun::settled(double now_s) const {
 }
 
 void WheelRun::recordDriveForFit() {
-  if (!options_.compensate_deadband) return;
-  // The fit is frozen after fit_drives drives: the trim estimator measures k against the offsets
-  // the drives compensate, and offsets that kept moving by a few 1e-4 (each a few 0.1 % of the
-  // wheel speed) would keep moving the k it converges to.
-  if (static_cast<int>(fit_points_left_.size()) >= options_.fit_drives) return;
-  // Steady rate of each wheel: least squares of ticks against time after the motors' lag.
-  const double t0 = drive_start_s_ + options_.motor_settle_s, t1 = drive_end_s_;
-  if (t1 - t0 < options_.min_fit_window_s) return;  // a short drive's rate is too coarse
-  double n = 0, st = 0, stt = 0, sl = 0, sr = 0, stl = 0, str = 0;
-  for (const auto& s : drive_samples_) {
-    if (s[0] < t0 || s[0] > t1) continue;
-    n += 1, st += s[0], stt += s[0] * s[0], sl += s[1], sr += s[2], stl += s[0] * s[1],
-        str += s[0] * s[2];
-  }
-  if (n < 5) return;
-  const double den = n * stt - st * st;
-  if (den <= 0) return;
-  const double k = 2 * M_PI / ticks_per_rev_;
-  // A rate's variance from a window of length T falls as 1/T^3 (quantised ticks, uniform
-  // samples): the short first drives weigh little next to the long ones.
-  const double weight = std::pow(t1 - t0, 3);
-  fit_points_left_.push_back(
-      {std::abs(drive_duties_.left), std::abs(k * (n * stl - st * sl) / den), weight});
-  fit_points_right_.push_back(
-      {std::abs(drive_duties_.right), std::abs(k * (n * str - st * sr) / den), weight});
-  auto fit = [](const std::vector<std::array<double, 3>>& pts, MotorFit& out) {
-    double lo = 1e9, hi = -1e9, m = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (const auto& p : pts) {
-      const double w = p[2];
-      lo = std::min(lo, p[0]), hi = std::max(hi, p[0]);
-      m += w, sx += w * p[0], sy += w * p[1], sxx += w * p[0] * p[0], sxy += w * p[0] * p[1];
-    }
-    if (hi - lo < 0.03) return;  // one duty: the line is not determined
-    const double a = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-    const double b = (sy - a * sx) / m;
-    if (!(a > 0)) return;
-    const double offset = -b / a;
-    if (!(offset >= 0 && offset < 0.6)) return;
-    out = {true, a, offset, static_cast<int>(pts.size())};
-  };
-  // Beyond the paper: a drive whose rate lies off the line of the others by more than
-  // max_fit_residual (a bump, a slipping wheel, a command that came late) is dropped from both
-  // wheels' fits, the worst first, while at least four drives remain.
-  auto residual = [](const std::array<double, 3>& p, const MotorFit& f) {
-    return std::abs(p[1] - f.slope * (p[0] - f.offset)) / std::max(p[1], 1e-9);
-  };
-  while (true) {
-    fit_left_ = fit_right_ = MotorFit();
-    fit(fit_points_left_, fit_left_);
-    fit(fit_points_right_, fit_right_);
-    if (!fit_left_.valid || !fit_right_.valid || fit_points_left_.size() <= 4) break;
-    size_t worst = 0;
-    double worst_residual = 0;
-    for (size_t i = 0; i < fit_points_left_.size(); ++i) {
-      const double r = std::max(residual(fit_points_left_[i], fit_left_),
-                                residual(fit_points_right_[i], fit_right_));
-      if (r > worst_residual) worst_residual = r, worst = i;
-    }
-    if (worst_residual <= options_.max_fit_residual) break;
-    fit_points_left_.erase(fit_points_left_.begin() + worst);
-    fit_points_right_.erase(fit_points_right_.begin() + worst);
-  }
+  if (options_.compensate_deadband) fitter_.addDrive(drive_, ticks_per_rev_);
 }
 
 void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
@@ -427,14 +389,14 @@ void WheelRun::onMeasured(double now_s) {
         const KinematicsParams& p = drive_params_;
         const double w = back_mps / p.radius;
         const WheelDuties d = speedsToDuties(p, {w, w});
-        drive_duties_ = d;
         duties_ = {-d.left, -d.right};
         drive_sign_ = -1;
         motion_ = Motion::kDrive;
-        drive_start_s_ = now_s;
+        drive_ = DriveRecord();
+        drive_.duties = d;
+        drive_.start_s = now_s;
         drive_start_left_ = left_;
         drive_start_right_ = right_;
-        drive_samples_.clear();
         // As long as the forward drive was commanded, at the speed ratio: the same distance.
         // Beyond the paper: lengthened or shortened by the share of the forward drive's distance
         // the earlier cycles left the robot ahead of (or behind) where the iteration started, by
@@ -493,7 +455,7 @@ void WheelRun::onSettled(double now_s) {
       drive_forward_m_ = driveDistanceM();
       creep_m_ += drive_forward_m_;
       drive_left_angle_rad_ = (left_ - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
-      forward_s_ = drive_end_s_ - drive_start_s_;
+      forward_s_ = drive_.end_s - drive_.start_s;
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
       return;
@@ -551,7 +513,7 @@ WheelDuties WheelRun::update(double now_s) {
   if ((motion_ == Motion::kPulse || motion_ == Motion::kDrive) && !motion_clock_started_) {
     motion_clock_started_ = true;
     motion_end_s_ = now_s + motion_len_s_;
-    if (motion_ == Motion::kDrive) drive_start_s_ = now_s;
+    if (motion_ == Motion::kDrive) drive_.start_s = now_s;
   }
   switch (motion_) {
     case Motion::kPulse:
@@ -611,9 +573,9 @@ std::string WheelRun::describe() const {
        formatNumber(trimFromSpeedRatio(estimator_.ratio(), options_.kinematics.gain), 4) + ")";
   if (iteration_ > 0) s += ", last dtheta " + deg(last_delta_theta_rad_);
   if (std::isfinite(last_heading_rad_)) s += ", heading " + deg(last_heading_rad_);
-  if (fit_left_.valid && fit_right_.valid) {
-    s += ", deadband " + formatNumber(fit_left_.offset, 4) + "/" +
-         formatNumber(fit_right_.offset, 4);
+  if (fitter_.left().valid && fitter_.right().valid) {
+    s += ", deadband " + formatNumber(fitter_.left().offset, 4) + "/" +
+         formatNumber(fitter_.right().offset, 4);
   }
   return s;
 }

@@ -1,0 +1,74 @@
+// The camera stage recomputed from a recording, ROS-free: the passive counterpart of SweepRun. It
+// commands nothing; it follows the commands the robot was given (its wheels_cmd) and, in each stop
+// of the sweep (paper 000 §3.2: pulse, stop, settle, grab), takes the first frame after the robot
+// settled — settle_s after the stop and the encoders still for still_s, as SweepRun — into the same
+// ViewCollector, then calibrates the views exactly as SweepRun does. Only stops while the recorded
+// run was collecting count (the min-duty probe's stops do not): the caller says when from the
+// recorded status (setCollecting).
+#pragma once
+
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "autocal/camera/calibration.h"
+#include "autocal/camera/camera_config.h"
+#include "autocal/camera/sweep_run.h"
+#include "autocal/camera/view_selection.h"
+#include "autocal/sensors.h"
+
+namespace autocal {
+namespace camera {
+
+class SweepReplay {
+ public:
+  /// Throws ConfigError for invalid options or config.
+  SweepReplay(const SweepRunOptions& options, const CameraCalibrationConfig& camera);
+
+  /// The command the robot was given at `stamp_s` (repeats are fine).
+  void addCommand(double stamp_s, const WheelDuties& duties);
+  /// Cumulative ticks of both wheels.
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks);
+  /// Whether the recorded run was collecting views from `stamp_s` on (its phase camera/collect).
+  /// The start of collecting counts as a stop (SweepRun settles before its first frame).
+  void setCollecting(double stamp_s, bool collecting);
+  bool collecting() const { return collecting_; }
+  /// The first frame after the robot settled in a stop while collecting.
+  bool wantsFrame(double stamp_s) const;
+  /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted.
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source);
+
+  /// Calibrates and gates the views (calibrateSweepViews); throws CalibrationError.
+  CalibrationResult calibrate() const { return calibrateSweepViews(collector_, camera_); }
+  const CameraCalibrationConfig& cameraConfig() const { return camera_; }
+  const ViewCollector& collector() const { return collector_; }
+  const std::vector<CalibrationView>& calibrationViews() const {
+    return collector_.calibrationViews();
+  }
+  /// Grey frames by CalibrationView::frame_index, for the audit folder.
+  const std::map<int, cv::Mat>& frames() const { return frames_; }
+  int stops() const { return stops_; }
+  int framesProcessed() const { return collector_.frames(); }
+  /// Sim (recording) seconds from the first to the last frame processed.
+  double elapsedS() const { return frames_seen_ ? last_frame_s_ - first_frame_s_ : 0.0; }
+  std::string describe() const;
+
+ private:
+  SweepRunOptions options_;
+  CameraCalibrationConfig camera_;
+  ViewCollector collector_;
+  bool collecting_ = false;
+  bool moving_ = false;
+  bool taken_ = true;  ///< the current stop's frame was taken (nothing to take before a stop)
+  double stop_s_ = 0;
+  int stops_ = 0;
+  bool have_encoders_ = false;
+  double encoder_stamp_s_ = -1, last_change_s_ = -1;
+  int left_ = 0, right_ = 0;
+  std::map<int, cv::Mat> frames_;
+  bool frames_seen_ = false;
+  double first_frame_s_ = 0, last_frame_s_ = 0;
+};
+
+}  // namespace camera
+}  // namespace autocal

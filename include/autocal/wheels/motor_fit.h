@@ -1,0 +1,64 @@
+// Each wheel's duty → steady speed line from the wheel stage's drives (beyond paper 000: the
+// deadband). A drive's steady rate per wheel is the least-squares slope of its encoder ticks after
+// the motors' lag; the line through the drives' (duty, rate) points gives the duty at which the
+// wheel starts to turn. Shared by the live wheel stage (WheelRun) and its replay (WheelReplay), so
+// that a recording is fitted exactly as the robot fitted it.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "autocal/sensors.h"
+
+namespace autocal {
+namespace wheels {
+
+/// One wheel's duty → steady speed line [rad/s per duty].
+struct MotorFit {
+  bool valid = false;
+  double slope = 0;   ///< [rad/s]
+  double offset = 0;  ///< duty at which the wheel starts to turn [1]
+  int points = 0;
+};
+
+struct MotorFitOptions {
+  /// The start of a drive that the fit skips (the wheels' lag) [s].
+  double motor_settle_s = 0.3;
+  /// Only drives whose steady part lasts this long enter the fit [s].
+  double min_fit_window_s = 0.8;
+  /// Drives whose rates make the fit; later drives leave it as it is.
+  int fit_drives = 6;
+  /// A drive off the other drives' line by more than this share is left out [1].
+  double max_fit_residual = 0.015;
+};
+
+/// One drive as the encoders saw it: commanded duties (their magnitudes are used), when the
+/// command started and stopped, and the (stamp [s], left ticks, right ticks) readings meanwhile.
+struct DriveRecord {
+  WheelDuties duties;
+  double start_s = 0, end_s = 0;
+  std::vector<std::array<double, 3>> samples;
+};
+
+class MotorFitter {
+ public:
+  explicit MotorFitter(const MotorFitOptions& options) : options_(options) {}
+
+  /// Adds a drive's point to both wheels' lines (unless the fit is frozen, the drive too short or
+  /// too sparsely sampled) and refits. `ticks_per_revolution` > 0.
+  void addDrive(const DriveRecord& drive, int ticks_per_revolution);
+  const MotorFit& left() const { return left_; }
+  const MotorFit& right() const { return right_; }
+  /// Drives whose points are in the fit (after outliers were dropped).
+  int points() const { return static_cast<int>(points_left_.size()); }
+  /// fit_drives points are in the fit: it no longer changes.
+  bool frozen() const { return points() >= options_.fit_drives; }
+
+ private:
+  MotorFitOptions options_;
+  std::vector<std::array<double, 3>> points_left_, points_right_;  // duty, rate, weight
+  MotorFit left_, right_;
+};
+
+}  // namespace wheels
+}  // namespace autocal

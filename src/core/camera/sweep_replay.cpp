@@ -1,0 +1,76 @@
+// The camera stage recomputed from a recording (see sweep_replay.h).
+#include "autocal/camera/sweep_replay.h"
+
+#include <cmath>
+
+#include "autocal/camera/chessboard.h"
+#include "autocal/errors.h"
+
+namespace autocal {
+namespace camera {
+
+SweepReplay::SweepReplay(const SweepRunOptions& options, const CameraCalibrationConfig& camera)
+    : options_((options.validate(), options)),
+      camera_(sweepCameraConfig(camera, options_)),
+      collector_(camera_.board, camera_.detector, camera_.selection) {}
+
+void SweepReplay::addCommand(double stamp_s, const WheelDuties& duties) {
+  const bool moving = std::abs(duties.left) > 1e-6 || std::abs(duties.right) > 1e-6;
+  if (moving == moving_) return;
+  moving_ = moving;
+  if (!moving) {  // a stop: its frame is to be taken once settled
+    stop_s_ = stamp_s;
+    taken_ = false;
+  }
+}
+
+void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks) {
+  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
+  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
+  have_encoders_ = true;
+  encoder_stamp_s_ = stamp_s;
+  left_ = left_ticks;
+  right_ = right_ticks;
+}
+
+void SweepReplay::setCollecting(double stamp_s, bool collecting) {
+  if (collecting && !collecting_ && !moving_) {
+    stop_s_ = std::max(stop_s_, stamp_s);
+    taken_ = false;
+  }
+  collecting_ = collecting;
+}
+
+bool SweepReplay::wantsFrame(double stamp_s) const {
+  if (!collecting_ || moving_ || taken_ || !have_encoders_) return false;
+  // SweepRun::settled: settle_s after the stop, then the encoders still for still_s, or
+  // max_settle_s after the stop whatever they say.
+  if (stamp_s < stop_s_ + options_.sweep.settle_s) return false;
+  if (stamp_s >= stop_s_ + options_.sweep.max_settle_s) return true;
+  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+}
+
+bool SweepReplay::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {
+  if (!wantsFrame(stamp_s)) return false;
+  taken_ = true;
+  ++stops_;
+  const int frame_index = collector_.frames();
+  const size_t sharp_before = collector_.sharpViews().size();
+  const FrameResult frame = collector_.addFrame(image, source);
+  if (frame.any_kept() || collector_.sharpViews().size() > sharp_before)
+    frames_[frame_index] = toGray(image);
+  if (!frames_seen_) first_frame_s_ = stamp_s;
+  frames_seen_ = true;
+  last_frame_s_ = stamp_s;
+  return true;
+}
+
+std::string SweepReplay::describe() const {
+  const Coverage c = collector_.coverage();
+  return "replaying: " + std::to_string(stops_) + " stops, " + std::to_string(c.views) +
+         " views, " + std::to_string(collector_.sharpViews().size()) + " sharp" +
+         (c.sufficient ? ", coverage sufficient" : "");
+}
+
+}  // namespace camera
+}  // namespace autocal

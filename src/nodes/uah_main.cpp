@@ -73,6 +73,8 @@ Args parseArgs(int argc, char** argv) {
       a.help = true;
       continue;
     }
+    // roslaunch appends __name:=… and __log:=… when it starts the command as a node.
+    if (flag.rfind("__", 0) == 0 && flag.find(":=") != std::string::npos) continue;
     if (i + 1 >= argc) throw UsageError(flag + ": missing value (or unknown option)");
     const std::string value = argv[++i];
     if (flag == "--bag") {

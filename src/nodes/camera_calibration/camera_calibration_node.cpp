@@ -36,6 +36,10 @@ void CameraCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
                         "must be > 0");
   ros_layer::checkParam(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
+  ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
+                        "must not be empty");
+  ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
+                        "recording_end_wait_s", "must be > 0");
   ros_layer::validateParams(run);
 }
 
@@ -59,6 +63,9 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   p.get("use_camera_info_guess", o.use_camera_info_guess);
   p.get("set_camera_info", o.set_camera_info);
   p.get("status_rate_hz", o.status_rate_hz);
+  p.get("passive", o.passive);
+  p.get("recorded_status_topic", o.recorded_status_topic);
+  p.get("recording_end_wait_s", o.recording_end_wait_s);
 
   SweepRunOptions& r = o.run;
   p.get("probe_min_duty", r.probe_min_duty);
@@ -131,18 +138,37 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
       nh_, options_.image_transport, "camera_calibration_node",
       [this](const ros::Time& stamp) { return frameWanted(stamp); },
       [this](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
+        if (replay_) {
+          replay_->addFrame(stamp.toSec(), image, source);
+          return;
+        }
         run_->addFrame(stamp.toSec(), image, source);
         publishDebug(image);
       },
-      &error_);
+      &error_, options_.passive ? 30 : 2);
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
         arrivals_.encoders = true;
+        if (recording_) recording_->noteMessage();
+        if (replay_) replay_->addEncoders(stamp.toSec(), left, right);
         if (run_)
           run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
       },
       &error_);
+  if (options_.passive) {
+    // The recording's commands and statuses; the stage is built when camera_info is known, and
+    // nothing of the recording comes before rosbag play starts (replay.launch delays it).
+    recording_ = std::make_unique<ros_layer::RecordingFollower>(
+        nh_, "camera", options_.recorded_status_topic,
+        [this](const ros::Time& stamp, const WheelDuties& d) {
+          if (replay_) replay_->addCommand(stamp.toSec(), d);
+        },
+        [this](const ros::Time& stamp, const std::string& phase) {
+          if (replay_) replay_->setCollecting(stamp.toSec(), phase == "camera/collect");
+        },
+        &error_);
+  }
 }
 
 void CameraCalibrationNode::connect() {
@@ -177,6 +203,8 @@ void CameraCalibrationNode::onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr
 }
 
 bool CameraCalibrationNode::frameWanted(const ros::Time& stamp) {
+  if (recording_) recording_->noteMessage();
+  if (replay_) return replay_->wantsFrame(stamp.toSec());
   if (!run_) return false;
   arrivals_.frames = true;
   run_->noteFrameArrived(ros::Time::now().toSec());
@@ -205,6 +233,25 @@ void CameraCalibrationNode::waitForCameraInfo() {
     if (error_) std::rethrow_exception(error_);
     rate.sleep();
   }
+}
+
+void CameraCalibrationNode::waitForRecordedCameraInfo() {
+  // On wall time: the recording's clock starts (jumps) when rosbag play does.
+  ros::WallRate rate(options_.control_rate_hz);
+  ros::Time first;
+  while (ros_layer::ok() && !have_info_) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    const ros::Time now = ros::Time::now();
+    if (first.isZero()) first = now;
+    if (!first.isZero() && (now - first).toSec() >= options_.camera_info_wait_s) break;
+    if (recording_->recordingEnded(options_.recording_end_wait_s))
+      throw InputError("the recording ended before any camera_info came");
+    rate.sleep();
+  }
+}
+
+std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stageSetup() const {
   CameraCalibrationConfig camera = camera_;
   SweepRunOptions run = options_.run;
   if (have_info_) {
@@ -221,12 +268,8 @@ void CameraCalibrationNode::waitForCameraInfo() {
         "(~camera_hfov_rad), the fit starts from OpenCV's own guess",
         options_.camera_info_wait_s, run.sweep.camera_hfov_rad);
   }
-  run_ = std::make_unique<SweepRun>(run, camera);
   if (have_info_) frames_->holdToSize(cv::Size(info_.width, info_.height));
-  if (encoders_->valid()) {
-    const double now = ros::Time::now().toSec();
-    run_->addEncoders(now, encoders_->left(), encoders_->right(), encoders_->resolution(), now);
-  }
+  return {camera, run};
 }
 
 void CameraCalibrationNode::publishStatus(bool force) {
@@ -252,8 +295,15 @@ void CameraCalibrationNode::run() {
   if (options_.resume &&
       ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "camera"))
     return;
+  if (options_.passive) return runPassive();
   connect();
   waitForCameraInfo();
+  const auto setup = stageSetup();
+  run_ = std::make_unique<SweepRun>(setup.second, setup.first);
+  if (encoders_->valid()) {
+    const double now = ros::Time::now().toSec();
+    run_->addEncoders(now, encoders_->left(), encoders_->right(), encoders_->resolution(), now);
+  }
   if (!ros_layer::runStageLoop(
           *run_, [this] { return run_->swept(); }, options_.control_rate_hz, error_, arrivals_,
           wheels_, [this] { publishStatus(false); }))
@@ -261,18 +311,86 @@ void CameraCalibrationNode::run() {
   finish();
 }
 
-void CameraCalibrationNode::finish() {
-  status_.running("camera/calibrate", 0.95, run_->describe());
-  const CalibrationResult result = run_->calibrate();  // throws when the gate refuses it
+void CameraCalibrationNode::runPassive() {
+  // Camera_info comes from the recording: wait for the first (on the recording's clock, which
+  // starts when rosbag play does).
+  ROS_INFO(
+      "camera_calibration_node: passive: replaying the camera stage from the recording "
+      "(recorded status on %s)",
+      recording_->statusTopic().c_str());
+  waitForRecordedCameraInfo();
+  const auto setup = stageSetup();
+  replay_ = std::make_unique<SweepReplay>(setup.second, setup.first);
+  ros::WallRate rate(options_.control_rate_hz);
+  ros::WallTime last_status;
+  while (ros_layer::ok() && !recording_->stageEnded()) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.status_rate_hz) {
+      status_.running("camera/replay", recording_->stageStarted() ? 0.5 : 0.0, replay_->describe(),
+                      {{"stops", static_cast<double>(replay_->stops())},
+                       {"views", static_cast<double>(replay_->collector().coverage().views)},
+                       {"frames_dropped", static_cast<double>(frames_->dropped())}});
+      last_status = ros::WallTime::now();
+    }
+    if (recording_->recordingEnded(options_.recording_end_wait_s)) {
+      throw InputError("the recording ended before its camera stage did (" + replay_->describe() +
+                       "; " +
+                       (recording_->stageStarted()
+                            ? "the stage's end is not in it)"
+                            : "no status of the camera stage on " + recording_->statusTopic() +
+                                  ": was calibration/status recorded?)"));
+    }
+    rate.sleep();
+  }
+  if (!ros_layer::ok()) return;
+  if (recording_->stageFailed())
+    ROS_WARN(
+        "camera_calibration_node: the recorded camera stage FAILED (%s); calibrating what "
+        "it saw",
+        recording_->failure().c_str());
+  status_.running("camera/calibrate", 0.95, replay_->describe());
+  const CalibrationResult result = replay_->calibrate();  // throws when the gate refuses it
+  const std::string path = write(result, replay_->calibrationViews(), replay_->frames());
   const CameraIntrinsics& in = result.intrinsics;
+  ROS_INFO(
+      "camera_calibration_node: replay: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, "
+      "RMS %.3f px over %zu views (%s), %d stops",
+      path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
+      result.used_views.size(), result.fitted_terms.c_str(), replay_->stops());
+  status_.done("camera/write", "wrote " + path,
+               {{"fx", in.fx},
+                {"fy", in.fy},
+                {"cx", in.cx},
+                {"cy", in.cy},
+                {"k1", in.distortion_coefficients[0]},
+                {"k2", in.distortion_coefficients[1]},
+                {"rms_px", result.rms_px},
+                {"views", static_cast<double>(result.used_views.size())},
+                {"stops", static_cast<double>(replay_->stops())},
+                {"sweep_s", replay_->elapsedS()},
+                {"frames_dropped", static_cast<double>(frames_->dropped())}});
+}
+
+std::string CameraCalibrationNode::write(const CalibrationResult& result,
+                                         const std::vector<CalibrationView>& views,
+                                         const std::map<int, cv::Mat>& frames) {
   const std::string path =
       (fs::path(options_.calibration_root) / "camera_intrinsic" / (options_.veh + ".yaml"))
           .string();
   std::error_code ec;
   fs::create_directories(fs::path(path).parent_path(), ec);
   if (ec) throw IoError(fs::path(path).parent_path().string() + ": cannot create: " + ec.message());
-  writeCameraCalibration(path, ros_layer::cameraInfoYaml(in, options_.veh), camera_.board, result,
-                         run_->calibrationViews(), run_->frames());
+  writeCameraCalibration(path, ros_layer::cameraInfoYaml(result.intrinsics, options_.veh),
+                         camera_.board, result, views, frames);
+  return path;
+}
+
+void CameraCalibrationNode::finish() {
+  status_.running("camera/calibrate", 0.95, run_->describe());
+  const CalibrationResult result = run_->calibrate();  // throws when the gate refuses it
+  const CameraIntrinsics& in = result.intrinsics;
+  const std::string path = write(result, run_->calibrationViews(), run_->frames());
   ROS_INFO(
       "camera_calibration_node: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, RMS %.3f "
       "px over %zu views (%s), sweep %.1f s",

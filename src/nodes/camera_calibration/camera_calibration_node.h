@@ -10,6 +10,12 @@
 // ~debug/image/compressed. On success writes <calibration_root>/camera_intrinsic/<veh>.yaml and
 // its audit folder, optionally calls camera_node/set_camera_info, publishes DONE whose text is
 // "wrote <path>", and returns; every failure is an exception for runNode's failure path.
+//
+// ~passive (replay.launch): the same stage recomputed from a recording played with `rosbag play
+// --clock`. It advertises no wheels_cmd; it reads the recorded wheels_driver_node/wheels_cmd and
+// the recorded run's status on ~recorded_status_topic, takes one settled frame per stop of the
+// recorded sweep (camera::SweepReplay) and, once the recorded camera stage ended, calibrates and
+// writes as above. A recording that ends before the stage did is a failure.
 #pragma once
 
 #include <ros/ros.h>
@@ -22,6 +28,7 @@
 #include <string>
 
 #include "autocal/camera/camera_config.h"
+#include "autocal/camera/sweep_replay.h"
 #include "autocal/camera/sweep_run.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
@@ -50,6 +57,12 @@ struct CameraCalibrationNodeOptions {
   double connect_wait_s = 5.0;
   bool set_camera_info = false;  ///< call camera_node/set_camera_info with the result
   double status_rate_hz = 2.0;
+  /// Replay a recording instead of driving the robot (see above).
+  bool passive = false;
+  /// Passive: where the recording's calibration/status is played (replay.launch remaps it).
+  std::string recorded_status_topic = "calibration/recorded_status";
+  /// Passive: the recording has ended when the clock has not moved for this long [wall s].
+  double recording_end_wait_s = 5.0;
   SweepRunOptions run;
 
   /// Throws ConfigError naming the first bad key.
@@ -71,15 +84,25 @@ class CameraCalibrationNode {
   template <typename F>
   void guarded(F&& f);
   void connect();
+  /// Waits up to camera_info_wait_s for camera_info (passive: in the recording, on wall time).
   void waitForCameraInfo();
+  void waitForRecordedCameraInfo();
+  /// The camera config and run options (camera_info's field of view and guess, when it came).
+  std::pair<CameraCalibrationConfig, SweepRunOptions> stageSetup() const;
   void publishStatus(bool force);
   void publishDebug(const cv::Mat& frame);
   void finish();
+  void runPassive();
+  /// Writes the calibration file and its audit folder; returns the file's path.
+  std::string write(const CalibrationResult& result, const std::vector<CalibrationView>& views,
+                    const std::map<int, cv::Mat>& frames);
 
   ros::NodeHandle nh_, pnh_;
   CameraCalibrationNodeOptions options_;
   CameraCalibrationConfig camera_;
   std::unique_ptr<SweepRun> run_;
+  std::unique_ptr<SweepReplay> replay_;                      ///< passive
+  std::unique_ptr<ros_layer::RecordingFollower> recording_;  ///< passive
   ros_layer::StatusPublisher status_;
   ros_layer::WheelsCommander wheels_;
   ros::Publisher debug_pub_;

@@ -30,6 +30,12 @@ void WheelCalibrationNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
                         "must be < 0.9 (negative: automatic)");
+  ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
+                        "must not be empty");
+  ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
+                        "recording_end_wait_s", "must be > 0");
+  ros_layer::checkParam(std::isfinite(intrinsics_wait_s) && intrinsics_wait_s > 0,
+                        "intrinsics_wait_s", "must be > 0");
   ros_layer::validateParams(run);
 }
 
@@ -50,6 +56,10 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("status_rate_hz", o.status_rate_hz);
   p.get("update_kinematics_node", o.update_kinematics_node);
   p.get("deadband_guess", o.deadband_guess);
+  p.get("passive", o.passive);
+  p.get("recorded_status_topic", o.recorded_status_topic);
+  p.get("recording_end_wait_s", o.recording_end_wait_s);
+  p.get("intrinsics_wait_s", o.intrinsics_wait_s);
 
   WheelRunOptions& r = o.run;
   ros_layer::readTagParams(p, r.detector, r.heading, r.mount);
@@ -86,6 +96,14 @@ double figure(const autocal::CalibrationStatus& msg, const std::string& name) {
   return -1;
 }
 
+/// The file a stage's DONE names: "wrote <file>", or "kept <file>" from a resumed run.
+std::string fileOfDone(const autocal::CalibrationStatus& done) {
+  if (!(done.text.rfind("wrote ", 0) == 0 || done.text.rfind("kept ", 0) == 0))
+    throw CalibrationError("the camera stage's DONE names no file (\"" + done.text +
+                           "\"), and no ~intrinsics_file");
+  return done.text.substr(done.text.find(' ') + 1);
+}
+
 }  // namespace
 
 WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
@@ -107,12 +125,7 @@ void WheelCalibrationNode::waitForCameraStage() {
   const autocal::CalibrationStatus done =
       ros_layer::waitForStage(nh_, "camera", options_.camera_stage_wait_s);  // throws
   if (!ros_layer::ok()) return;
-  // "wrote <file>", or "kept <file>" from a resumed run.
-  const size_t space = done.text.find(' ');
-  if (!(done.text.rfind("wrote ", 0) == 0 || done.text.rfind("kept ", 0) == 0))
-    throw CalibrationError("the camera stage's DONE names no file (\"" + done.text +
-                           "\"), and no ~intrinsics_file");
-  options_.intrinsics_file = done.text.substr(space + 1);
+  options_.intrinsics_file = fileOfDone(done);
   camera_min_duty_left_ = figure(done, "min_duty_left_forward");
   camera_min_duty_right_ = figure(done, "min_duty_right_forward");
 }
@@ -166,16 +179,10 @@ void WheelCalibrationNode::run() {
   if (options_.resume &&
       ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "wheels"))
     return;
+  if (options_.passive) return runPassive();
   waitForCameraStage();
   if (!ros_layer::ok()) return;
-  sensor_msgs::CameraInfo info;
-  std::string camera_name;
-  if (!camera_calibration_parsers::readCalibration(options_.intrinsics_file, camera_name, info) ||
-      info.K[0] <= 0) {
-    throw ConfigError("the camera intrinsics '" + options_.intrinsics_file +
-                      "' cannot be read (the wheel stage needs the calibrated camera)");
-  }
-  const CameraIntrinsics intrinsics = ros_layer::fromCameraInfo(info);
+  const CameraIntrinsics intrinsics = readIntrinsics();
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
   double guess_left = options_.deadband_guess, guess_right = options_.deadband_guess;
@@ -217,6 +224,151 @@ void WheelCalibrationNode::run() {
           wheels_, [this] { publishStatus(false); }))
     return;  // interrupted: runNode stops the wheels
   finish();
+}
+
+CameraIntrinsics WheelCalibrationNode::readIntrinsics() const {
+  sensor_msgs::CameraInfo info;
+  std::string camera_name;
+  if (!camera_calibration_parsers::readCalibration(options_.intrinsics_file, camera_name, info) ||
+      info.K[0] <= 0) {
+    throw ConfigError("the camera intrinsics '" + options_.intrinsics_file +
+                      "' cannot be read (the wheel stage needs the calibrated camera)");
+  }
+  return ros_layer::fromCameraInfo(info);
+}
+
+void WheelCalibrationNode::onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
+  if (msg->phase.rfind("camera/", 0) != 0 || !options_.intrinsics_file.empty()) return;
+  if (msg->state == autocal::CalibrationStatus::STATE_FAILED)
+    camera_failure_ = msg->failure_reason.empty() ? msg->text : msg->failure_reason;
+  if (msg->state != autocal::CalibrationStatus::STATE_DONE) return;
+  try {
+    options_.intrinsics_file = fileOfDone(*msg);
+  } catch (...) {
+    error_ = std::current_exception();
+  }
+}
+
+void WheelCalibrationNode::runPassive() {
+  WheelRunOptions r = options_.run;
+  r.kinematics = before_;
+  ROS_INFO(
+      "wheel_calibration_node: passive: replaying the wheel stage from the recording "
+      "(recorded status on %s), kinematics %s",
+      ros::names::resolve(nh_.resolveName(options_.recorded_status_topic)).c_str(),
+      kinematics_path_.c_str());
+  if (options_.intrinsics_file.empty())
+    stage_status_sub_ =
+        nh_.subscribe("calibration/status", 20, &WheelCalibrationNode::onStageStatus, this);
+  bool intrinsics_set = false;
+  auto setIntrinsics = [&] {
+    if (intrinsics_set || !replay_ || options_.intrinsics_file.empty()) return;
+    replay_->setIntrinsics(readIntrinsics());
+    intrinsics_set = true;
+    ROS_INFO("wheel_calibration_node: replay: intrinsics %s", options_.intrinsics_file.c_str());
+  };
+  recording_ = std::make_unique<ros_layer::RecordingFollower>(
+      nh_, "wheels", options_.recorded_status_topic,
+      [this](const ros::Time& stamp, const WheelDuties& d) {
+        if (replay_) replay_->addCommand(stamp.toSec(), d);
+      },
+      [this, r](const ros::Time&, const std::string& phase) {
+        // The recorded stage begins after its wait for the camera stage: from then on its
+        // commands, encoders and frames are the wheel stage's.
+        if (!replay_ && phase != "wheels/wait") replay_ = std::make_unique<WheelReplay>(r);
+      },
+      &error_);
+  frames_ = std::make_unique<ros_layer::FrameInput>(
+      nh_, options_.image_transport, "wheel_calibration_node",
+      [this](const ros::Time& stamp) {
+        recording_->noteMessage();
+        return replay_ && replay_->wantsFrame(stamp.toSec());
+      },
+      [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
+        replay_->addFrame(stamp.toSec(), image);
+      },
+      &error_, 30);
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int resolution) {
+        recording_->noteMessage();
+        if (replay_) replay_->addEncoders(stamp.toSec(), left, right, resolution);
+      },
+      &error_);
+
+  auto describe = [&] {
+    return replay_ ? replay_->describe() : std::string("waiting for the recorded wheel stage");
+  };
+  ros::WallRate rate(options_.control_rate_hz);
+  ros::WallTime last_status;
+  auto spin = [&](const std::string& phase, double progress) {
+    ros::spinOnce();
+    if (error_) std::rethrow_exception(error_);
+    if (!camera_failure_.empty())
+      throw CalibrationError("the camera stage failed (" + camera_failure_ +
+                             "): the wheel stage needs its intrinsics");
+    setIntrinsics();
+    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.status_rate_hz) {
+      status_.running(phase, progress, describe(),
+                      {{"drives", replay_ ? static_cast<double>(replay_->drives()) : 0.0},
+                       {"stills", replay_ ? static_cast<double>(replay_->stills()) : 0.0},
+                       {"frames_dropped", static_cast<double>(frames_->dropped())}});
+      last_status = ros::WallTime::now();
+    }
+    rate.sleep();
+  };
+  while (ros_layer::ok() && !recording_->stageEnded()) {
+    spin("wheels/replay", replay_ ? 0.5 : 0.0);
+    if (recording_->recordingEnded(options_.recording_end_wait_s)) {
+      throw InputError("the recording ended before its wheel stage did (" + describe() +
+                       (recording_->stageStarted()
+                            ? "; the stage's end is not in it)"
+                            : "; no status of the wheel stage on " + recording_->statusTopic() +
+                                  ": was calibration/status recorded?)"));
+    }
+  }
+  if (!ros_layer::ok()) return;
+  if (!replay_)
+    throw InputError("the recorded wheel stage ended before it began: nothing to replay (" +
+                     recording_->failure() + ")");
+  if (recording_->stageFailed())
+    ROS_WARN(
+        "wheel_calibration_node: the recorded wheel stage FAILED (%s); recomputing what it "
+        "drove",
+        recording_->failure().c_str());
+  const ros::WallTime wait_end =
+      ros::WallTime::now() + ros::WallDuration(options_.intrinsics_wait_s);
+  while (ros_layer::ok() && !intrinsics_set) {
+    if (ros::WallTime::now() > wait_end)
+      throw CalibrationError("no intrinsics " + std::to_string(options_.intrinsics_wait_s) +
+                             " s after the recording's wheel stage ended: the camera stage gave "
+                             "no DONE on calibration/status, and no ~intrinsics_file");
+    spin("wheels/wait", 0.9);
+  }
+  if (!ros_layer::ok()) return;
+  const WheelReplayResult result = replay_->result();  // throws
+  if (!result.converged) {
+    throw CalibrationError("the replayed iteration did not converge (" +
+                           std::to_string(result.iterations.size()) + " updates over " +
+                           std::to_string(result.drives) + " drives): nothing written");
+  }
+  status_.running("wheels/write", 0.98, describe());
+  writeKinematicsFile(kinematics_path_, result.kinematics);  // validates first; throws on failure
+  const KinematicsParams& k = result.kinematics;
+  ROS_INFO(
+      "wheel_calibration_node: replay: wrote %s: trim %.4f, deadband %.4f/%.4f, %zu updates "
+      "over %d drives, %d/%d stills measured",
+      kinematics_path_.c_str(), k.trim, k.deadband_left, k.deadband_right, result.iterations.size(),
+      result.drives, result.measured, result.stills);
+  status_.done("wheels/write", "wrote " + kinematics_path_,
+               {{"trim", k.trim},
+                {"trim_before", before_.trim},
+                {"k", result.iterations.back().ratio_after},
+                {"deadband_left", k.deadband_left},
+                {"deadband_right", k.deadband_right},
+                {"drives", static_cast<double>(result.iterations.size())},
+                {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
+                {"frames_dropped", static_cast<double>(frames_->dropped())}});
 }
 
 void WheelCalibrationNode::finish() {

@@ -11,7 +11,14 @@
 // (phase wheels/<step>), apriltag_detector_node/detections (the tags of each processed frame).
 // On success writes the file, sets the running kinematics_node's parameters, publishes DONE whose
 // text is "wrote <path>", and returns; every failure is an exception for runNode's failure path.
-#pragma once
+//
+// ~passive (replay.launch): the same stage recomputed from a recording played with `rosbag play
+// --clock`. It advertises no wheels_cmd and sets no kinematics_node parameter; from the recorded
+// run's first wheel-stage status (on ~recorded_status_topic) it follows the recorded
+// wheels_driver_node/wheels_cmd, encoders and frames (wheels::WheelReplay), takes the intrinsics
+// from ~intrinsics_file or the (replayed) camera stage's DONE on calibration/status, and once the
+// recorded wheel stage ended writes kinematics/<veh>.yaml as above. A recording that ends before
+// the stage did, or whose replayed iteration does not converge, is a failure.
 
 #include <ros/ros.h>
 
@@ -19,6 +26,7 @@
 #include <memory>
 #include <string>
 
+#include "autocal/wheels/wheel_replay.h"
 #include "autocal/wheels/wheel_run.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
@@ -47,6 +55,15 @@ struct WheelCalibrationNodeOptions {
   /// First guess of each wheel's deadband [duty]; negative: the camera stage's minimum moving duty
   /// (its DONE figures), else the kinematics file's offsets.
   double deadband_guess = -1;
+  /// Replay a recording instead of driving the robot (see above).
+  bool passive = false;
+  /// Passive: where the recording's calibration/status is played (replay.launch remaps it).
+  std::string recorded_status_topic = "calibration/recorded_status";
+  /// Passive: the recording has ended when the clock has not moved for this long [wall s].
+  double recording_end_wait_s = 5.0;
+  /// Passive: after the recorded stage ended, wait this long for the camera stage's intrinsics
+  /// [wall s].
+  double intrinsics_wait_s = 120.0;
   WheelRunOptions run;
 
   /// Throws ConfigError naming the first bad key.
@@ -65,10 +82,18 @@ class WheelCalibrationNode {
   void publishStatus(bool force);
   void publishDetections(const ros::Time& stamp);
   void finish();
+  void runPassive();
+  /// Passive: the camera stage's DONE (or FAILED) on calibration/status.
+  void onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg);
+  CameraIntrinsics readIntrinsics() const;
 
   ros::NodeHandle nh_, pnh_;
   WheelCalibrationNodeOptions options_;
   std::unique_ptr<WheelRun> run_;
+  std::unique_ptr<WheelReplay> replay_;                      ///< passive
+  std::unique_ptr<ros_layer::RecordingFollower> recording_;  ///< passive
+  ros::Subscriber stage_status_sub_;                         ///< passive
+  std::string camera_failure_;                               ///< passive
   ros_layer::StatusPublisher status_;
   ros_layer::WheelsCommander wheels_;
   std::unique_ptr<ros_layer::FrameInput> frames_;

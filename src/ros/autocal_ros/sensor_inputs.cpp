@@ -12,15 +12,16 @@ namespace ros_layer {
 
 FrameInput::FrameInput(ros::NodeHandle nh, const std::string& transport,
                        const std::string& node_name, Wanted wanted, Handler handler,
-                       std::exception_ptr* error)
+                       std::exception_ptr* error, int queue_size)
     : node_name_(node_name),
       wanted_(std::move(wanted)),
       handler_(std::move(handler)),
       error_(error) {
   if (transport == "compressed") {
-    sub_ = nh.subscribe("camera_node/image/compressed", 2, &FrameInput::onCompressed, this);
+    sub_ =
+        nh.subscribe("camera_node/image/compressed", queue_size, &FrameInput::onCompressed, this);
   } else {
-    sub_ = nh.subscribe("camera_node/image/raw", 2, &FrameInput::onRaw, this);
+    sub_ = nh.subscribe("camera_node/image/raw", queue_size, &FrameInput::onRaw, this);
   }
 }
 
@@ -86,6 +87,67 @@ void EncoderInput::on(const dtmsg::WheelEncoderStamped::ConstPtr& msg, bool left
   } catch (...) {
     *error_ = std::current_exception();
   }
+}
+
+RecordingFollower::RecordingFollower(ros::NodeHandle nh, const std::string& stage,
+                                     const std::string& recorded_status_topic,
+                                     CommandHandler on_command, PhaseHandler on_phase,
+                                     std::exception_ptr* error)
+    : stage_(stage),
+      on_command_(std::move(on_command)),
+      on_phase_(std::move(on_phase)),
+      error_(error) {
+  // Every command of the recording counts: a drive's start and stop cut the motions.
+  cmd_sub_ =
+      nh.subscribe("wheels_driver_node/wheels_cmd", 200, &RecordingFollower::onCommand, this);
+  status_sub_ = nh.subscribe(recorded_status_topic, 50, &RecordingFollower::onStatus, this);
+  status_topic_ = status_sub_.getTopic();
+}
+
+template <typename F>
+void RecordingFollower::guarded(F&& f) {
+  if (*error_) return;
+  try {
+    f();
+  } catch (...) {
+    *error_ = std::current_exception();
+  }
+}
+
+void RecordingFollower::onCommand(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
+  guarded([&] {
+    ++messages_;
+    noteMessage();
+    const ros::Time stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
+    on_command_(stamp, WheelDuties{msg->vel_left, msg->vel_right});
+  });
+}
+
+void RecordingFollower::onStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
+  guarded([&] {
+    ++messages_;
+    noteMessage();
+    if (msg->phase.rfind(stage_ + "/", 0) != 0) return;
+    if (msg->phase != stage_ + "/wait") started_ = true;
+    const ros::Time stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
+    on_phase_(stamp, msg->phase);
+    if (msg->state == autocal::CalibrationStatus::STATE_DONE ||
+        msg->state == autocal::CalibrationStatus::STATE_FAILED) {
+      ended_ = true;
+      failed_ = msg->state == autocal::CalibrationStatus::STATE_FAILED;
+      failure_ = msg->failure_reason;
+    }
+  });
+}
+
+bool RecordingFollower::recordingEnded(double wait_s) {
+  const ros::WallTime now = ros::WallTime::now();
+  if (clock_start_wall_.isZero()) {
+    if (ros::Time::now().isZero()) return false;  // rosbag play has not started
+    clock_start_wall_ = now;
+  }
+  const ros::WallTime since = std::max(last_message_wall_, clock_start_wall_);
+  return (now - since).toSec() > wait_s;
 }
 
 }  // namespace ros_layer

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include "autocal/sensors.h"
 #include "autocal_ros/msgs.h"
 
 namespace autocal {
@@ -28,8 +29,9 @@ class FrameInput {
 
   /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr).
   /// `transport`: "compressed" or "raw". `error` receives a handler's exception.
+  /// `queue_size`: frames waiting while one is handled (a replay keeps more: none may be lost).
   FrameInput(ros::NodeHandle nh, const std::string& transport, const std::string& node_name,
-             Wanted wanted, Handler handler, std::exception_ptr* error);
+             Wanted wanted, Handler handler, std::exception_ptr* error, int queue_size = 2);
   /// Frames of another size are dropped (default: the first frame's size).
   FrameInput(const FrameInput&) = delete;
   FrameInput& operator=(const FrameInput&) = delete;
@@ -80,6 +82,56 @@ class EncoderInput {
   std::exception_ptr* error_ = nullptr;
   bool have_left_ = false, have_right_ = false;
   int left_ = 0, right_ = 0, resolution_ = 0;
+};
+
+/// A passive stage's view of a recording played with `rosbag play --clock` (replay.launch): the
+/// commands the robot was given (wheels_driver_node/wheels_cmd, which the passive node only reads)
+/// and the recorded run's status of one stage, on `recorded_status_topic` (where replay.launch
+/// remaps the bag's calibration/status, so that it does not mix with the replay's own).
+class RecordingFollower {
+ public:
+  using CommandHandler = std::function<void(const ros::Time& stamp, const WheelDuties& duties)>;
+  /// Every recorded status of the stage: its stamp and phase ("<stage>/<step>").
+  using PhaseHandler = std::function<void(const ros::Time& stamp, const std::string& phase)>;
+  /// Subscribes with `this`: not copyable or movable. `error` receives a handler's exception.
+  RecordingFollower(ros::NodeHandle nh, const std::string& stage,
+                    const std::string& recorded_status_topic, CommandHandler on_command,
+                    PhaseHandler on_phase, std::exception_ptr* error);
+  RecordingFollower(const RecordingFollower&) = delete;
+  RecordingFollower& operator=(const RecordingFollower&) = delete;
+
+  /// The recorded stage has begun: a phase of it other than "<stage>/wait" was seen.
+  bool stageStarted() const { return started_; }
+  /// The recorded stage published DONE or FAILED (failed(): FAILED, with its reason).
+  bool stageEnded() const { return ended_; }
+  bool stageFailed() const { return failed_; }
+  const std::string& failure() const { return failure_; }
+  /// Messages of the recording seen so far (commands and statuses).
+  int messages() const { return messages_; }
+  /// Another message of the recording arrived (the node's frames and encoders; commands and
+  /// statuses are noted here).
+  void noteMessage() { last_message_wall_ = ros::WallTime::now(); }
+  /// True when no message of the recording came for `wait_s` of wall time since the recording's
+  /// clock started (rosbag play --keep-alive goes on publishing its clock past the end): the
+  /// recording ended, or holds none of the stage's topics. Call it from the node's loop.
+  bool recordingEnded(double wait_s);
+  const std::string& statusTopic() const { return status_topic_; }
+
+ private:
+  void onCommand(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
+  void onStatus(const autocal::CalibrationStatus::ConstPtr& msg);
+  template <typename F>
+  void guarded(F&& f);
+
+  ros::Subscriber cmd_sub_, status_sub_;
+  std::string stage_, status_topic_;
+  CommandHandler on_command_;
+  PhaseHandler on_phase_;
+  std::exception_ptr* error_ = nullptr;
+  bool started_ = false, ended_ = false, failed_ = false;
+  std::string failure_;
+  int messages_ = 0;
+  ros::WallTime clock_start_wall_, last_message_wall_;
 };
 
 }  // namespace ros_layer

@@ -1,0 +1,169 @@
+// replay.test: records a simulated calibration, replays it with `rosrun autocal replay` (no robot,
+// no simulator: replay.launch), and compares the replay's files with the live run's and with the
+// simulator's truth (the robot config, which no node reads); then the failures a user meets: a
+// recording cut during the wheel stage, and a file that is not a bag.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <signal.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "autocal/io/yaml_reader.h"
+#include "autocal/sim/config.h"
+#include "autocal/wheels/kinematics.h"
+#include "autocal_ros/node_runtime.h"
+#include "support/ros_wait.h"
+#include "support/test_params.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using autocal::YamlMap;
+using autocal::test::spinUntil;
+using autocal::test::testParam;
+
+struct Files {
+  std::vector<double> camera_matrix;  ///< empty when there is no camera file
+  bool has_kinematics = false;
+  autocal::wheels::KinematicsParams kinematics;
+};
+
+Files readFiles(const fs::path& root, const std::string& veh) {
+  Files f;
+  const fs::path camera = root / "camera_intrinsic" / (veh + ".yaml");
+  if (fs::exists(camera))
+    f.camera_matrix = YamlMap::loadFile(camera.string())
+                          .map("camera_matrix")
+                          .required<std::vector<double>>("data");
+  const fs::path kin = root / "kinematics" / (veh + ".yaml");
+  f.has_kinematics = fs::exists(kin);
+  if (f.has_kinematics) f.kinematics = autocal::wheels::readKinematicsFile(kin.string());
+  return f;
+}
+
+/// `rosrun autocal replay` with the args; its exit status and output.
+int replay(const std::string& args, const fs::path& log) {
+  const std::string cmd = "rosrun autocal replay " + args + " > " + log.string() + " 2>&1";
+  std::cout << "$ " << cmd << std::endl;
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string readText(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
+  const std::string veh = testParam<std::string>("veh");
+  const fs::path root = testParam<std::string>("root");
+  const fs::path live_root = root / "live", bag = root / "live.bag";
+  const std::string rate = std::to_string(testParam<double>("rate"));
+  const autocal::sim::RobotConfig robot =
+      autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
+  // The live run: its report says success, then the recording is closed (SIGINT, as Ctrl-C) and
+  // the simulator stopped (its clock would mix with the recording's).
+  const fs::path summary = live_root / "report" / veh / "summary.yaml";
+  // An earlier test run's files (the stages write only at their ends; the recorder is writing
+  // live.bag.active now, which stays).
+  fs::remove_all(live_root);
+  fs::remove(bag);
+  ros::NodeHandle nh;
+  ASSERT_TRUE(spinUntil([&] { return fs::exists(summary); }, 400.0)) << summary;
+  ASSERT_EQ(YamlMap::loadFile(summary.string()).required<std::string>("result"), "success");
+  autocal::test::spinUntilSimTime(ros::Time::now().toSec() + 0.5, 10);
+  const int recorder = autocal::ros_layer::nodePid(testParam<std::string>("recorder"));
+  ASSERT_GT(recorder, 0) << "rosbag record is not running";
+  ASSERT_EQ(::kill(recorder, SIGINT), 0);
+  ASSERT_TRUE(
+      spinUntil([&] { return fs::exists(bag) && !fs::exists(bag.string() + ".active"); }, 60))
+      << "rosbag record did not close " << bag;
+  const int sim = autocal::ros_layer::nodePid(testParam<std::string>("sim"));
+  ASSERT_GT(sim, 0);
+  ASSERT_EQ(::kill(sim, SIGINT), 0);
+  ASSERT_TRUE(spinUntil(
+      [&] { return autocal::ros_layer::nodePid(testParam<std::string>("sim")) < 0; }, 30));
+  std::cout << "recorded " << bag << " (" << fs::file_size(bag) / (1024 * 1024) << " MiB)"
+            << std::endl;
+  const Files live = readFiles(live_root, veh);
+  ASSERT_EQ(live.camera_matrix.size(), 9u);
+  ASSERT_TRUE(live.has_kinematics);
+
+  // The replay: the same stages from the bag, into another root.
+  const fs::path replay_root = root / "replay";
+  fs::remove_all(replay_root);
+  const int code = replay("bag:=" + bag.string() + " veh:=" + veh + " rate:=" + rate +
+                              " calibration_root:=" + replay_root.string(),
+                          root / "replay.log");
+  EXPECT_EQ(code, 0) << readText(root / "replay.log");
+  const Files r = readFiles(replay_root, veh);
+  ASSERT_EQ(r.camera_matrix.size(), 9u) << readText(root / "replay.log");
+  ASSERT_TRUE(r.has_kinematics) << readText(root / "replay.log");
+  const double names[4][2] = {{0, robot.camera.truth.fx},
+                              {4, robot.camera.truth.fy},
+                              {2, robot.camera.truth.cx},
+                              {5, robot.camera.truth.cy}};
+  for (const auto& n : names) {
+    const int i = static_cast<int>(n[0]);
+    std::cout << "K[" << i << "]: replay " << r.camera_matrix[i] << ", live "
+              << live.camera_matrix[i] << " ("
+              << 100 * (r.camera_matrix[i] / live.camera_matrix[i] - 1) << " %), truth " << n[1]
+              << std::endl;
+    EXPECT_NEAR(r.camera_matrix[i], live.camera_matrix[i], 0.002 * live.camera_matrix[i]);
+    EXPECT_NEAR(r.camera_matrix[i], n[1], 0.005 * n[1]);
+  }
+  const double k_true = (robot.motor_gain_left * robot.wheel_radius_left) /
+                        (robot.motor_gain_right * robot.wheel_radius_right);
+  const double trim_true = autocal::wheels::trimFromSpeedRatio(k_true, r.kinematics.gain);
+  std::cout << "trim: replay " << r.kinematics.trim << ", live " << live.kinematics.trim
+            << ", truth " << trim_true << "; deadband replay " << r.kinematics.deadband_left << "/"
+            << r.kinematics.deadband_right << ", live " << live.kinematics.deadband_left << "/"
+            << live.kinematics.deadband_right << std::endl;
+  EXPECT_NEAR(r.kinematics.trim, live.kinematics.trim, 0.005);
+  EXPECT_NEAR(r.kinematics.trim, trim_true, 0.005);
+  EXPECT_NEAR(r.kinematics.deadband_left, live.kinematics.deadband_left, 0.005);
+  EXPECT_NEAR(r.kinematics.deadband_right, live.kinematics.deadband_right, 0.005);
+  EXPECT_TRUE(fs::exists(replay_root / "report" / veh / "report.png"));
+
+  // Cut during the wheel stage (rosbag play -u: the first 60 s of a 107 s recording whose camera
+  // stage ends at 28 s): the camera file, a FAILED wheel stage that says why, no kinematics file.
+  const fs::path cut_root = root / "cut";
+  fs::remove_all(cut_root);
+  EXPECT_EQ(replay("bag:=" + bag.string() + " veh:=" + veh + " rate:=" + rate +
+                       " duration_s:=60 calibration_root:=" + cut_root.string(),
+                   root / "cut.log"),
+            1);
+  const Files cut = readFiles(cut_root, veh);
+  EXPECT_EQ(cut.camera_matrix.size(), 9u);
+  EXPECT_FALSE(cut.has_kinematics);
+  YamlMap cut_summary = YamlMap::loadFile((cut_root / "report" / veh / "summary.yaml").string());
+  EXPECT_EQ(cut_summary.required<std::string>("result"), "failed");
+  EXPECT_NE(cut_summary.required<std::string>("failure").find("ended before its wheel stage did"),
+            std::string::npos)
+      << cut_summary.required<std::string>("failure");
+
+  // Not a bag: rosbag play refuses it and the replay ends at once, nothing written.
+  const fs::path text = root / "not_a_bag.bag";
+  std::ofstream(text) << "this is not a bag\n";
+  const fs::path bad_root = root / "bad";
+  fs::remove_all(bad_root);
+  EXPECT_EQ(
+      replay("bag:=" + text.string() + " veh:=" + veh + " calibration_root:=" + bad_root.string(),
+             root / "bad.log"),
+      1);
+  const Files bad = readFiles(bad_root, veh);
+  EXPECT_TRUE(bad.camera_matrix.empty());
+  EXPECT_FALSE(bad.has_kinematics);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_replay");
+  return RUN_ALL_TESTS();
+}

@@ -14,6 +14,16 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 if(CATKIN_ENABLE_TESTING)
+  # The node's diagnostics and believed path, with the stages played by the test (no simulator).
+  add_rostest_gtest(test_run_report_node test/report/run_report_node.test
+    test/report/test_run_report_node.cpp)
+  target_link_libraries(test_run_report_node autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_run_report_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_run_report_node)
+  add_dependencies(test_run_report_node run_report_node)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
   # SIGKILL of a stage's node mid-run (run_kill.test), judged by the simulator's truth.
   add_executable(test_run_kill EXCLUDE_FROM_ALL test/report/test_run_kill.cpp)
   target_link_libraries(test_run_kill autocal_core autocal_ros GTest::gtest)

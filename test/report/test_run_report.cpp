@@ -10,6 +10,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/yaml_reader.h"
+#include "autocal/report/camera_view.h"
 #include "autocal/report/run_report.h"
 
 using namespace autocal;
@@ -228,4 +229,20 @@ TEST(Report, WritesTheSheetAndTheSummary) {
   EXPECT_FALSE(gates[3].passed);
   EXPECT_THROW(loadViewsAudit((dir / "none.yaml").string()), IoError);
   fs::remove_all(dir);
+}
+
+TEST(CameraView, DrawsTheDetectionsOutlines) {
+  cv::Mat image(120, 160, CV_8UC3, cv::Scalar(128, 128, 128));
+  markers::TagDetection d;
+  d.id = 7;
+  d.corners_px = {cv::Point2d(40, 80), cv::Point2d(100, 80), cv::Point2d(100, 20),
+                  cv::Point2d(40, 20)};
+  d.center_px = {70, 50};
+  drawTagDetections(image, {d});
+  // The first edge red, the others green; far from the outline the image is untouched.
+  EXPECT_EQ(image.at<cv::Vec3b>(80, 70), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(image.at<cv::Vec3b>(50, 100), cv::Vec3b(0, 220, 0));
+  EXPECT_EQ(image.at<cv::Vec3b>(20, 70), cv::Vec3b(0, 220, 0));
+  EXPECT_EQ(image.at<cv::Vec3b>(5, 5), cv::Vec3b(128, 128, 128));
+  EXPECT_EQ(image.at<cv::Vec3b>(100, 150), cv::Vec3b(128, 128, 128));
 }

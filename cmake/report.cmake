@@ -28,6 +28,10 @@ endif()
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_run_report SOURCES test/report/test_run_report.cpp LIBS autocal_core)
+  # calibrate_sim.launch rviz:=true parses (roslaunch --nodes: nothing starts, no RViz needed) and
+  # config/autocal.rviz shows the nodes' topics.
+  autocal_core_gtest(test_rviz_launch SOURCES test/report/test_rviz_launch.cpp LIBS autocal_core)
+  add_dependencies(test_rviz_launch camera_view_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

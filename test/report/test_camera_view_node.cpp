@@ -1,7 +1,8 @@
 // camera_view_node (camera_view_node.test): the camera image with detections, raw, for RViz. The
 // test plays the camera (JPEG frames), the wheel stage's detections and the camera stage's debug
-// image, and checks camera_view/image: the frame with the detection's outline drawn, the debug
-// image instead while that comes, and no subscription to its inputs while nobody looks.
+// image, and checks camera_view/image: a frame with its detections' outline drawn (paired by stamp,
+// in either order), the debug image instead while that comes, and no subscription to its inputs
+// while nobody looks.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -120,6 +121,20 @@ TEST(CameraViewNode, TheFrameWithItsDetectionsOrTheDebugImageOnlyWhileWatched) {
                                       toString(pixel(*last, 120, 220))
                                 : std::string("none"));
   EXPECT_TRUE(near(pixel(*last, 20, 20), cv::Vec3b(128, 128, 128))) << "only the outline drawn";
+
+  // The usual order: the frame, then the stage's detections in it (paired by stamp).
+  for (int i = 0; i < 3; ++i) {
+    stamp += ros::Duration(0.05);
+    const ros::Time sent = stamp;
+    frame_pub.publish(jpeg(grey, sent));
+    spinUntil([] { return false; }, 0.05);  // pacing only: the frame goes first, mostly
+    AprilTagDetectionArray detections;
+    detections.header.stamp = sent;
+    detections.detections.push_back(tag);
+    detections_pub.publish(detections);
+    ASSERT_TRUE(spinUntil([&] { return last->header.stamp == sent && drawn(); }, 10.0))
+        << "frame " << i << " not shown with its detections";
+  }
 
   // The camera stage's debug image comes first while it comes (frames keep coming too).
   const cv::Scalar blue(200, 40, 30);

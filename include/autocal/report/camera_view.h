@@ -10,8 +10,8 @@
 namespace autocal {
 namespace report {
 
-/// Draws each detection's outline (green, its first edge red: libapriltag's corner order) and id
-/// onto `image` (BGR, 8 bit).
+/// Draws each detection's outline (green, its first edge red: libapriltag's corner order; lines
+/// 1/200 of the image's width, at least 2 px) and id onto `image` (BGR, 8 bit).
 void drawTagDetections(cv::Mat& image, const std::vector<markers::TagDetection>& detections);
 
 }  // namespace report

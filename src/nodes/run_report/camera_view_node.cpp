@@ -18,15 +18,15 @@ void CameraViewNodeOptions::validate() const {
                         "must be > 0 [Hz]");
   ros_layer::checkParam(std::isfinite(debug_timeout_s) && debug_timeout_s > 0, "debug_timeout_s",
                         "must be > 0 [s]");
-  ros_layer::checkParam(std::isfinite(max_detection_age_s) && max_detection_age_s >= 0,
-                        "max_detection_age_s", "must be >= 0 [s]");
+  ros_layer::checkParam(std::isfinite(overlay_hold_s) && overlay_hold_s >= 0, "overlay_hold_s",
+                        "must be >= 0 [s]");
 }
 
 CameraViewNode::CameraViewNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
   const ros_layer::ParamReader p(pnh_, "camera_view_node");
   p.get("max_rate_hz", options_.max_rate_hz);
   p.get("debug_timeout_s", options_.debug_timeout_s);
-  p.get("max_detection_age_s", options_.max_detection_age_s);
+  p.get("overlay_hold_s", options_.overlay_hold_s);
   options_.validate();
   // Subscribe to the inputs only while somebody looks.
   const ros::SubscriberStatusCallback connection = [this](const ros::SingleSubscriberPublisher&) {
@@ -64,9 +64,18 @@ void CameraViewNode::onDebugImage(const sensor_msgs::CompressedImage::ConstPtr& 
 }
 
 void CameraViewNode::onFrame(const sensor_msgs::CompressedImage::ConstPtr& msg) {
+  frames_.push_back(msg);
+  if (frames_.size() > kBufferedFrames) frames_.pop_front();
   // The camera stage's own image, with its detections, comes first while it comes.
   if ((ros::WallTime::now() - last_debug_).toSec() < options_.debug_timeout_s) return;
-  if (due()) publish(*msg, true);
+  // Its detections came first (the wheel stage is quick).
+  if (msg->header.stamp == detections_stamp_) {
+    showWithDetections(*msg);
+    return;
+  }
+  // A frame with detections stays up a while: the wheel stage looks at frames in bursts.
+  if ((ros::WallTime::now() - last_overlay_).toSec() < options_.overlay_hold_s) return;
+  if (due()) publish(*msg, false);
 }
 
 void CameraViewNode::onDetections(const dtmsg::AprilTagDetectionArray::ConstPtr& msg) {
@@ -80,6 +89,20 @@ void CameraViewNode::onDetections(const dtmsg::AprilTagDetectionArray::ConstPtr&
   }
   detections_stamp_ = msg->header.stamp;
   detections_ = std::move(detections);
+  if ((ros::WallTime::now() - last_debug_).toSec() < options_.debug_timeout_s) return;
+  // Its frame came first (the usual order: the stage answers a frame it received).
+  for (auto it = frames_.rbegin(); it != frames_.rend(); ++it) {
+    if ((*it)->header.stamp == detections_stamp_) {
+      showWithDetections(**it);
+      return;
+    }
+  }
+}
+
+void CameraViewNode::showWithDetections(const sensor_msgs::CompressedImage& frame) {
+  if (detections_.empty() || !due()) return;
+  publish(frame, true);
+  last_overlay_ = ros::WallTime::now();
 }
 
 void CameraViewNode::publish(const sensor_msgs::CompressedImage& msg, bool draw_detections) {
@@ -88,9 +111,7 @@ void CameraViewNode::publish(const sensor_msgs::CompressedImage& msg, bool draw_
     ROS_WARN_THROTTLE(5.0, "camera_view_node: dropped an image that does not decode");
     return;
   }
-  if (draw_detections &&
-      std::abs((msg.header.stamp - detections_stamp_).toSec()) <= options_.max_detection_age_s)
-    drawTagDetections(image, detections_);
+  if (draw_detections) drawTagDetections(image, detections_);
   sensor_msgs::Image out;
   out.header = msg.header;
   out.height = static_cast<uint32_t>(image.rows);

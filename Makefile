@@ -17,6 +17,7 @@ DEBS := build-essential cmake catkin ros-base-dev libroscpp-dev python3-rostest 
   python3-roslaunch rosbash python3-rosbag librosbag-dev python3-rosnode python3-rostopic \
   libroslib-dev libros-rosgraph-msgs-dev libcv-bridge-dev libcamera-calibration-parsers-dev libtf2-ros-dev libsensor-msgs-dev \
   libgeometry-msgs-dev libnav-msgs-dev libstd-srvs-dev ros-message-generation \
+  libvisualization-msgs-dev libdiagnostic-msgs-dev libdiagnostic-updater-dev python3-diagnostic-msgs \
   libbox2d-dev libapriltag-dev libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev \
   libbenchmark-dev opencv-doc python3-camera-calibration python3-image-geometry python3-opencv python3-cv-bridge \
   python3-yaml python3-numpy python3-nav-msgs python3-sensor-msgs python3-geometry-msgs python3-std-msgs

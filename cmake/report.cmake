@@ -1,6 +1,6 @@
 # report: the run's report (report.png, summary.yaml) and run_report_node, which watches a whole
 # calibration run and ends it (included from CMakeLists.txt).
-target_sources(autocal_core PRIVATE src/core/report/run_report.cpp)
+target_sources(autocal_core PRIVATE src/core/report/run_report.cpp src/core/report/camera_view.cpp)
 
 add_executable(run_report_node
   src/nodes/run_report/run_report_node.cpp
@@ -9,8 +9,39 @@ target_link_libraries(run_report_node autocal_ros)
 target_compile_options(run_report_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(run_report_node)
 
+# The camera image with detections for RViz (raw: Debian has no compressed image_transport plugin).
+add_executable(camera_view_node
+  src/nodes/run_report/camera_view_node.cpp
+  src/nodes/run_report/camera_view_node_main.cpp)
+target_link_libraries(camera_view_node autocal_ros)
+target_compile_options(camera_view_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(camera_view_node)
+
+if(CATKIN_ENABLE_TESTING)
+  add_rostest_gtest(test_camera_view_node test/report/camera_view_node.test
+    test/report/test_camera_view_node.cpp)
+  target_link_libraries(test_camera_view_node autocal_ros GTest::gtest)
+  target_include_directories(test_camera_view_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_camera_view_node)
+  add_dependencies(test_camera_view_node camera_view_node)
+endif()
+
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_run_report SOURCES test/report/test_run_report.cpp LIBS autocal_core)
+  # calibrate_sim.launch rviz:=true parses (roslaunch --nodes: nothing starts, no RViz needed) and
+  # config/autocal.rviz shows the nodes' topics.
+  autocal_core_gtest(test_rviz_launch SOURCES test/report/test_rviz_launch.cpp LIBS autocal_core)
+  add_dependencies(test_rviz_launch camera_view_node)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # The node's diagnostics and believed path, with the stages played by the test (no simulator).
+  add_rostest_gtest(test_run_report_node test/report/run_report_node.test
+    test/report/test_run_report_node.cpp)
+  target_link_libraries(test_run_report_node autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_run_report_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_run_report_node)
+  add_dependencies(test_run_report_node run_report_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

@@ -19,7 +19,8 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # The simulator node.
-add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp)
+add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp
+  sim/src/node/world_markers.cpp)
 target_link_libraries(sim_node autocal_sim_core autocal_ros)
 autocal_ros_target(sim_node)
 
@@ -34,6 +35,7 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(test_sim_node sim_node)
   add_rostest(test/sim/sim_drive.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_bad_config.test DEPENDENCIES test_sim_node sim_node)
+  add_rostest(test/sim/sim_viz.test DEPENDENCIES test_sim_node sim_node)
 endif()
 
 # make bench: render time and real-time factor (ROS-free).

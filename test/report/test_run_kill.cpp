@@ -1,7 +1,8 @@
 // A calibration stage's node killed with SIGKILL mid-run, judged from outside (run_kill.test): the
 // simulator's truth says the robot stops within the wheel driver's watchdog, run_report_node
-// reports the run FAILED naming the dead node (status and summary.yaml), and the calibration files
-// of an earlier run are byte for byte intact.
+// reports the run FAILED naming the dead node (status, summary.yaml and /diagnostics: OK before,
+// ERROR after), and the calibration files of an earlier run are byte for byte intact.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -56,6 +57,13 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
       };
   ros::Subscriber status_sub = nh.subscribe<const ros::MessageEvent<CalibrationStatus const>&>(
       "calibration/status", 100, on_status);
+  // run_report_node's diagnostics of the stage (README "The calibration run").
+  std::optional<diagnostic_msgs::DiagnosticStatus> stage_diag;
+  ros::Subscriber diag_sub = ros::NodeHandle().subscribe<diagnostic_msgs::DiagnosticArray>(
+      "/diagnostics", 100, [&](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
+        for (const diagnostic_msgs::DiagnosticStatus& s : m->status)
+          if (s.name == veh + "/run_report_node: " + stage) stage_diag = s;
+      });
   std::vector<nav_msgs::Odometry> truth;
   ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
       "sim/ground_truth", 1000,
@@ -81,6 +89,10 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   fs::create_directories(fs::path(kinematics_file).parent_path());
   autocal::writeFileAtomically(camera_file, camera_text);
   autocal::writeFileAtomically(kinematics_file, kinematics_text);
+
+  // While the stage runs, its diagnostics are OK.
+  ASSERT_TRUE(spinUntil([&] { return stage_diag.has_value(); }, 30.0)) << "no diagnostics";
+  EXPECT_EQ(stage_diag->level, diagnostic_msgs::DiagnosticStatus::OK) << stage_diag->message;
 
   const int pid = autocal::ros_layer::nodePid(stage_node);
   ASSERT_GT(pid, 0) << stage_node;
@@ -109,6 +121,15 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   ASSERT_TRUE(spinUntil([&] { return died.has_value(); }, 30.0)) << "no " << stage << "/died";
   EXPECT_EQ(died->state, CalibrationStatus::STATE_FAILED);
   EXPECT_NE(died->failure_reason.find(stage_node), std::string::npos) << died->failure_reason;
+  // The diagnostics: ERROR naming the dead node.
+  EXPECT_TRUE(spinUntil(
+      [&] {
+        return stage_diag->level == diagnostic_msgs::DiagnosticStatus::ERROR &&
+               stage_diag->message.find(stage_node + " died") != std::string::npos;
+      },
+      30.0))
+      << "diagnostics of the dead stage: level " << int(stage_diag->level) << ", "
+      << stage_diag->message;
   const fs::path summary = root / "report" / veh / "summary.yaml";
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary); }, 30.0)) << summary;
   autocal::YamlMap s = autocal::YamlMap::loadFile(summary.string());

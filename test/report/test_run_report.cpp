@@ -10,6 +10,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/yaml_reader.h"
+#include "autocal/report/camera_view.h"
 #include "autocal/report/run_report.h"
 
 using namespace autocal;
@@ -92,6 +93,38 @@ TEST(RunRecorder, DeadStageAndInterruption) {
   EXPECT_THROW(RunRecorder("a", {}), ConfigError);
   EXPECT_THROW(RunRecorder("a", {"camera", "camera"}), ConfigError);
   EXPECT_THROW(RunRecorder("a", {"camera/x"}), ConfigError);
+}
+
+TEST(StageHealth, OkWhileRunningOrDoneErrorWhenFailedWarnWhenSilent) {
+  using Level = StageHealth::Level;
+  RunRecorder r("autobot", {"camera", "wheels"});
+  const auto health = [&](const std::string& stage, double silent_s) {
+    return stageHealth(*r.record().stage(stage), r.currentStage() == stage, silent_s, 10.0);
+  };
+  EXPECT_EQ(health("camera", 1).level, Level::kOk);
+  EXPECT_EQ(health("camera", 1).message, "waiting for the stage to start");
+  EXPECT_EQ(health("camera", 11).level, Level::kWarn) << "the stage the run waits on never spoke";
+  EXPECT_EQ(health("wheels", 500).level, Level::kOk) << "a later stage is not waited on yet";
+  EXPECT_EQ(health("wheels", 500).message, "pending");
+
+  r.addStatus(status(2, "camera/collect", kRunning, "3 views"));
+  StageHealth h = health("camera", 0.5);
+  EXPECT_EQ(h.level, Level::kOk);
+  EXPECT_NE(h.message.find("camera/collect"), std::string::npos) << h.message;
+  EXPECT_NE(h.message.find("3 views"), std::string::npos) << h.message;
+  h = health("camera", 12);
+  EXPECT_EQ(h.level, Level::kWarn);
+  EXPECT_EQ(h.message.rfind("silent for 12 s", 0), 0u) << h.message;
+  EXPECT_EQ(stageHealth(*r.record().stage("camera"), true, 1e6, 0).level, Level::kOk)
+      << "warn_after_s 0: never WARN";
+
+  r.addStatus(status(40, "camera/write", kDone, "wrote /x/c.yaml"));
+  EXPECT_EQ(health("camera", 100).level, Level::kOk) << "done is not silent";
+  EXPECT_EQ(health("camera", 100).message, "done: wrote /x/c.yaml");
+  r.addStatus(status(41, "wheels/iterate", kFailed, "the tags went out of view"));
+  h = health("wheels", 0);
+  EXPECT_EQ(h.level, Level::kError);
+  EXPECT_EQ(h.message, "failed: the tags went out of view");
 }
 
 TEST(RunRecorder, KeepsWhatTheLastReportSaysOfAStageWithoutStatus) {
@@ -196,4 +229,20 @@ TEST(Report, WritesTheSheetAndTheSummary) {
   EXPECT_FALSE(gates[3].passed);
   EXPECT_THROW(loadViewsAudit((dir / "none.yaml").string()), IoError);
   fs::remove_all(dir);
+}
+
+TEST(CameraView, DrawsTheDetectionsOutlines) {
+  cv::Mat image(120, 160, CV_8UC3, cv::Scalar(128, 128, 128));
+  markers::TagDetection d;
+  d.id = 7;
+  d.corners_px = {cv::Point2d(40, 80), cv::Point2d(100, 80), cv::Point2d(100, 20),
+                  cv::Point2d(40, 20)};
+  d.center_px = {70, 50};
+  drawTagDetections(image, {d});
+  // The first edge red, the others green; far from the outline the image is untouched.
+  EXPECT_EQ(image.at<cv::Vec3b>(80, 70), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(image.at<cv::Vec3b>(50, 100), cv::Vec3b(0, 220, 0));
+  EXPECT_EQ(image.at<cv::Vec3b>(20, 70), cv::Vec3b(0, 220, 0));
+  EXPECT_EQ(image.at<cv::Vec3b>(5, 5), cv::Vec3b(128, 128, 128));
+  EXPECT_EQ(image.at<cv::Vec3b>(100, 150), cv::Vec3b(128, 128, 128));
 }

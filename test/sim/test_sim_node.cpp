@@ -4,6 +4,7 @@
 // ground truth and against the config files, never against what the node says about itself.
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Clock.h>
@@ -12,6 +13,8 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Range.h>
 #include <sys/wait.h>
+#include <tf2_msgs/TFMessage.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
 #include <cmath>
@@ -24,6 +27,7 @@
 
 #include "autocal/exit_codes.h"
 #include "autocal/sim/config.h"
+#include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/msgs.h"
 #include "support/ros_wait.h"
 #include "support/test_params.h"
@@ -201,6 +205,122 @@ void command(ros::Publisher& pub, float left, float right) {
   cmd.vel_left = left;
   cmd.vel_right = right;
   pub.publish(cmd);
+}
+
+/// Markers of namespace `ns`.
+std::vector<visualization_msgs::Marker> markersOf(const visualization_msgs::MarkerArray& a,
+                                                  const std::string& ns) {
+  std::vector<visualization_msgs::Marker> out;
+  for (const visualization_msgs::Marker& m : a.markers)
+    if (m.ns == ns) out.push_back(m);
+  return out;
+}
+
+TEST(SimNode, PublishesTheWorldAndTheTruePathForRviz) {
+  const autocal::sim::WorldConfig world =
+      autocal::sim::loadWorldConfig(testParam<std::string>("world_config"));
+  const std::string veh = testParam<std::string>("veh");
+  ros::NodeHandle nh(veh);
+  visualization_msgs::MarkerArray::ConstPtr markers;
+  ros::Subscriber markers_sub = nh.subscribe<visualization_msgs::MarkerArray>(
+      "sim/world_markers", 1,
+      [&](const visualization_msgs::MarkerArray::ConstPtr& m) { markers = m; });
+  std::vector<geometry_msgs::TransformStamped> static_tf;
+  ros::Subscriber static_sub = ros::NodeHandle().subscribe<tf2_msgs::TFMessage>(
+      "/tf_static", 10, [&](const tf2_msgs::TFMessage::ConstPtr& m) {
+        static_tf.insert(static_tf.end(), m->transforms.begin(), m->transforms.end());
+      });
+  std::vector<nav_msgs::Odometry> truth;
+  ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 100000,
+      [&](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); });
+  nav_msgs::Path::ConstPtr path;
+  ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>(
+      "sim/true_path", 10, [&](const nav_msgs::Path::ConstPtr& m) { path = m; });
+
+  // Latched, before simulated time runs (the simulator holds it at 0 until a wheels_cmd).
+  ASSERT_TRUE(spinUntil([&] { return markers && !static_tf.empty(); }, 60.0))
+      << "no world markers or static TF";
+  EXPECT_EQ(markersOf(*markers, "floor").size(), 1u);
+  EXPECT_EQ(markersOf(*markers, "walls").size(), world.walls.size());
+  EXPECT_EQ(markersOf(*markers, "chessboards").size(), world.chessboards.size());
+  EXPECT_EQ(markersOf(*markers, "floor_tags").size(), world.floor_tags.size());
+  EXPECT_EQ(markersOf(*markers, "tag_ids").size(), world.floor_tags.size());
+  EXPECT_EQ(markersOf(*markers, "obstacles").size(), world.obstacles.size());
+  size_t dashes = 0;
+  for (const autocal::sim::LaneLineConfig& l : world.lane_lines) {
+    const double len = std::hypot(l.x1_m - l.x0_m, l.y1_m - l.y0_m);
+    dashes += l.dash_m > 0 ? static_cast<size_t>(std::ceil(len / (l.dash_m + l.gap_m))) : 1;
+  }
+  EXPECT_EQ(markersOf(*markers, "lane_lines").size(), dashes);
+  ASSERT_FALSE(world.walls.empty());
+  const visualization_msgs::Marker wall = markersOf(*markers, "walls").front();
+  EXPECT_EQ(wall.header.frame_id, "world");
+  EXPECT_NEAR(wall.pose.position.x, 0.5 * (world.walls[0].x0_m + world.walls[0].x1_m), 1e-9);
+  EXPECT_NEAR(wall.pose.position.y, 0.5 * (world.walls[0].y0_m + world.walls[0].y1_m), 1e-9);
+  EXPECT_NEAR(wall.scale.z, world.walls[0].height_m, 1e-9);
+  for (size_t i = 0; i < world.floor_tags.size(); ++i) {
+    const visualization_msgs::Marker tag = markersOf(*markers, "floor_tags")[i];
+    EXPECT_NEAR(tag.pose.position.x, world.floor_tags[i].pose.x_m, 1e-9);
+    EXPECT_NEAR(tag.pose.position.y, world.floor_tags[i].pose.y_m, 1e-9);
+    EXPECT_EQ(markersOf(*markers, "tag_ids")[i].text, std::to_string(world.floor_tags[i].id));
+  }
+  const std::vector<visualization_msgs::Marker> robot = markersOf(*markers, "robot");
+  ASSERT_FALSE(robot.empty());
+  for (const visualization_msgs::Marker& m : robot) {
+    EXPECT_EQ(m.header.frame_id, veh + "/ground_truth/base_link");
+    EXPECT_TRUE(m.frame_locked);
+  }
+  // The robot's start, where dead reckoning (the believed path) begins.
+  const auto odom = std::find_if(static_tf.begin(), static_tf.end(),
+                                 [&](const auto& t) { return t.child_frame_id == veh + "/odom"; });
+  ASSERT_NE(odom, static_tf.end());
+  EXPECT_EQ(odom->header.frame_id, "world");
+  EXPECT_NEAR(odom->transform.translation.x, world.robot_start.x_m, 1e-9);
+  EXPECT_NEAR(odom->transform.translation.y, world.robot_start.y_m, 1e-9);
+
+  // Drive an arc; the true path follows the ground truth.
+  ASSERT_TRUE(spinUntil([&] { return truth_sub.getNumPublishers() > 0; }, 60.0));
+  ros::Publisher cmd_pub = nh.advertise<WheelsCmdStamped>("wheels_driver_node/wheels_cmd", 10);
+  ASSERT_TRUE(spinUntil([&] { return cmd_pub.getNumSubscribers() > 0; }, 30.0));
+  WheelsCmdStamped cmd;
+  cmd.vel_left = static_cast<float>(testParam<double>("duty_left"));
+  cmd.vel_right = static_cast<float>(testParam<double>("duty_right"));
+  cmd_pub.publish(cmd);
+  const double drive_s = testParam<double>("drive_s");
+  ASSERT_TRUE(spinUntil(
+      [&] { return !truth.empty() && truth.back().header.stamp.toSec() >= drive_s; }, 60.0));
+  // The watchdog (longer than drive_s) has not stopped it: the robot still moves.
+  EXPECT_GT(std::abs(truth.back().twist.twist.linear.x), 0.05);
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        return path && !path->poses.empty() && path->poses.back().header.stamp.toSec() >= drive_s;
+      },
+      60.0))
+      << "no true path reaching " << drive_s << " s of sim time";
+  EXPECT_EQ(path->header.frame_id, "world");
+  EXPECT_GT(path->poses.size(), 20u);
+  EXPECT_NEAR(path->poses.front().pose.position.x, world.robot_start.x_m, 1e-6);
+  EXPECT_NEAR(path->poses.front().pose.position.y, world.robot_start.y_m, 1e-6);
+  // Every pose of the path is a ground-truth sample of the same stamp.
+  std::map<double, geometry_msgs::Pose> truth_at;
+  for (const nav_msgs::Odometry& m : truth) truth_at[m.header.stamp.toSec()] = m.pose.pose;
+  const double step_m = testParam<double>("path_step_m");
+  for (size_t i = 0; i < path->poses.size(); ++i) {
+    const geometry_msgs::PoseStamped& p = path->poses[i];
+    const auto it = truth_at.find(p.header.stamp.toSec());
+    if (it == truth_at.end()) continue;  // published before this test subscribed
+    EXPECT_NEAR(p.pose.position.x, it->second.position.x, 1e-9) << i;
+    EXPECT_NEAR(p.pose.position.y, it->second.position.y, 1e-9) << i;
+    if (i == 0) continue;
+    const geometry_msgs::Point& a = path->poses[i - 1].pose.position;
+    const double moved = std::hypot(p.pose.position.x - a.x, p.pose.position.y - a.y);
+    const double turned = std::abs(
+        std::remainder(autocal::ros_layer::quaternionToYaw(p.pose.orientation) -
+                           autocal::ros_layer::quaternionToYaw(path->poses[i - 1].pose.orientation),
+                       2 * M_PI));
+    EXPECT_TRUE(moved >= step_m - 1e-12 || turned >= 0.02) << i << ": thinned poses only";
+  }
 }
 
 TEST(SimNode, MovesOnWheelsCmdAndTheWatchdogStopsIt) {

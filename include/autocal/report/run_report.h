@@ -103,6 +103,20 @@ class RunRecorder {
   RunRecord record_;
 };
 
+/// How one stage looks to a person watching the run (issue 12 "Progress"; run_report_node turns
+/// it into a diagnostic_msgs status): OK while pending, running or done; ERROR with the reason
+/// when it failed; WARN when it is the stage the run waits on and nothing was heard of it for
+/// more than `warn_after_s` [s].
+struct StageHealth {
+  enum class Level { kOk, kWarn, kError } level = Level::kOk;
+  std::string message;
+};
+/// `current`: the run waits on this stage (RunRecorder::currentStage); `silent_s`: seconds since
+/// its last status, or since it became current when that is later; `warn_after_s` <= 0: never
+/// WARN.
+StageHealth stageHealth(const StageRecord& stage, bool current, double silent_s,
+                        double warn_after_s);
+
 /// The pose the encoders give, integrated with a nominal wheel radius and baseline [m]: what the
 /// robot believes its path was (x forward at the first sample, y left).
 struct PathPoint {

@@ -7,7 +7,9 @@
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Range.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,6 +19,7 @@
 #include "autocal/sim/scene.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
+#include "world_markers.h"
 
 namespace autocal {
 namespace sim {
@@ -36,6 +39,10 @@ void SimNodeOptions::validate() const {
   check(duration_s >= 0, "duration_s", "must be >= 0 (0: run until shutdown)");
   check(std::isfinite(lockstep_s) && lockstep_s >= 0, "lockstep_s", "must be >= 0 (0: off)");
   check(std::isfinite(lockstep_wait_s) && lockstep_wait_s > 0, "lockstep_wait_s", "must be > 0");
+  check(!odom_frame.empty(), "odom_frame", "must not be empty");
+  check(std::isfinite(viz_rate_hz) && viz_rate_hz > 0, "viz_rate_hz", "must be > 0");
+  check(std::isfinite(path_step_m) && path_step_m >= 0, "path_step_m", "must be >= 0");
+  check(path_max_poses >= 2, "path_max_poses", "must be >= 2");
 }
 
 SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
@@ -61,6 +68,11 @@ SimNodeOptions readSimNodeOptions(const ros::NodeHandle& nh, const ros::NodeHand
   ns.erase(0, ns.find_first_not_of('/'));
   o.vehicle = ns.empty() ? "robot" : ns;
   p.get("vehicle", o.vehicle);
+  o.odom_frame = o.vehicle + "/odom";
+  p.get("odom_frame", o.odom_frame);
+  p.get("viz_rate_hz", o.viz_rate_hz);
+  p.get("path_step_m", o.path_step_m);
+  p.get("path_max_poses", o.path_max_poses);
   o.validate();
   return o;
 }
@@ -106,6 +118,11 @@ SimNode::SimNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", small_queue);
   status_ = ros_layer::StatusPublisher(nh_, "sim/status");
   tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  static_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+  world_markers_pub_ =
+      nh_.advertise<visualization_msgs::MarkerArray>("sim/world_markers", 1, /*latch=*/true);
+  true_path_pub_ = nh_.advertise<nav_msgs::Path>("sim/true_path", 1);
+  true_path_.header.frame_id = options_.world_frame;
   wheels_cmd_sub_ = nh_.subscribe("wheels_driver_node/wheels_cmd", 10, &SimNode::onWheelsCmd, this);
 
   ROS_INFO_STREAM("sim: robot " << options_.robot_config << ", world " << options_.world_config
@@ -238,6 +255,44 @@ void SimNode::publishGroundTruth() {
   tf.child_frame_id = ground_truth_frame_;
   tf.transform = ros_layer::toTransformMsg(p);
   tf_->sendTransform(tf);
+
+  // The true path, thinned to a pose per path_step_m or 0.02 rad: cheap enough to keep always,
+  // published only when somebody looks (publishTruePath).
+  if (!true_path_.poses.empty()) {
+    const Pose2 last = ros_layer::fromPoseMsg(true_path_.poses.back().pose);
+    const double turned = std::abs(std::remainder(p.yaw_rad - last.yaw_rad, 2 * M_PI));
+    if (std::hypot(p.x_m - last.x_m, p.y_m - last.y_m) < options_.path_step_m && turned < 0.02)
+      return;
+  }
+  geometry_msgs::PoseStamped pose;
+  pose.header = odom.header;
+  pose.pose = odom.pose.pose;
+  true_path_.poses.push_back(pose);
+  auto& poses = true_path_.poses;
+  if (poses.size() > static_cast<size_t>(options_.path_max_poses))  // a tenth at a time
+    poses.erase(poses.begin(), poses.begin() + std::max<size_t>(1, poses.size() / 10));
+}
+
+void SimNode::publishVizStatic() {
+  visualization_msgs::MarkerArray markers = worldMarkers(world_, options_.world_frame);
+  const visualization_msgs::MarkerArray robot = robotMarkers(robot_, ground_truth_frame_);
+  markers.markers.insert(markers.markers.end(), robot.markers.begin(), robot.markers.end());
+  world_markers_pub_.publish(markers);
+  geometry_msgs::TransformStamped start;
+  start.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  start.header.frame_id = options_.world_frame;
+  start.child_frame_id = options_.odom_frame;
+  start.transform = ros_layer::toTransformMsg(world_.robot_start);
+  static_tf_->sendTransform(start);
+}
+
+void SimNode::publishTruePath() {
+  if (true_path_pub_.getNumSubscribers() == 0) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_path_).toSec() < 1.0 / options_.viz_rate_hz) return;
+  last_path_ = now;
+  true_path_.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  true_path_pub_.publish(true_path_);
 }
 
 void SimNode::publishStatus(double achieved_rtf) {
@@ -273,6 +328,7 @@ void SimNode::run() {
   double rtf_sim_mark = 0, achieved_rtf = 0;
   publishClock();
   publishStatus(0.0);
+  publishVizStatic();
   if (options_.wait_for_controller) {
     // At real_time_factor 0 a node started beside the simulator would find it far ahead (and
     // miss the start): hold time at 0 until a controller publishes on wheels_cmd.
@@ -299,7 +355,10 @@ void SimNode::run() {
     }
     if (due(encoders, t)) publishEncoders();
     if (due(range, t)) publishRange();
-    if (due(truth, t)) publishGroundTruth();
+    if (due(truth, t)) {
+      publishGroundTruth();
+      publishTruePath();
+    }
     if (renderer_ && due(camera, t)) publishCamera(t);
     if (due(status, t)) {
       const ros::WallTime now = ros::WallTime::now();

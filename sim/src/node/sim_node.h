@@ -1,9 +1,11 @@
 // The simulator's ROS node: steps the Box2D world on its own clock (/clock, with a real-time
 // factor), drives the wheels from wheels_cmd (with a watchdog), and publishes what a Duckiebot
 // publishes — camera (JPEG and raw, camera_info with the NOMINAL model), wheel encoders, range —
-// plus the ground truth, on its own topics only.
+// plus the ground truth, on its own topics only; and for RViz the world as markers (latched), the
+// true path (only while somebody subscribes) and the robot's start as the odom frame.
 #pragma once
 
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 
 #include <memory>
@@ -18,6 +20,7 @@
 
 namespace tf2_ros {
 class TransformBroadcaster;
+class StaticTransformBroadcaster;
 }
 
 namespace autocal {
@@ -37,6 +40,15 @@ struct SimNodeOptions {
   int max_blur_samples = 8;
   std::string vehicle;  ///< frame prefix, from the namespace
   std::string world_frame = "world";
+  /// Where dead reckoning starts: a static TF world_frame → odom_frame at the robot's start, so
+  /// that RViz draws a believed path (run_report_node) over the true one. Default "<veh>/odom".
+  std::string odom_frame;
+  /// sim/true_path is republished at most this often [Hz, wall clock], while subscribed.
+  double viz_rate_hz = 2.0;
+  /// The true path keeps a pose when the robot moved this far or turned 0.02 rad [m].
+  double path_step_m = 0.005;
+  /// The true path keeps at most this many poses (the oldest go first).
+  int path_max_poses = 20000;
   double duration_s = 0.0;  ///< stop after this much simulated time (0: run until shutdown)
   /// Hold simulated time at 0 until some node publishes on wheels_cmd (a controller or a test is
   /// connected): what a real_time_factor 0 run needs so that nobody misses the start.
@@ -74,6 +86,8 @@ class SimNode {
   void publishCamera(double capture_s);
   void publishGroundTruth();
   void publishStatus(double achieved_rtf);
+  void publishVizStatic();
+  void publishTruePath();
 
   ros::NodeHandle nh_, pnh_;
   SimNodeOptions options_;
@@ -85,9 +99,12 @@ class SimNode {
 
   ros::Subscriber wheels_cmd_sub_;
   ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_,
-      compressed_pub_, camera_info_pub_, ground_truth_pub_;
+      compressed_pub_, camera_info_pub_, ground_truth_pub_, world_markers_pub_, true_path_pub_;
   ros_layer::StatusPublisher status_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_tf_;
+  nav_msgs::Path true_path_;
+  ros::WallTime last_path_;
 
   double last_cmd_s_ = -1e9;
   bool watchdog_stopped_ = true;

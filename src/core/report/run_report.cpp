@@ -339,6 +339,34 @@ std::string RunRecorder::currentStage() const {
   return "";
 }
 
+StageHealth stageHealth(const StageRecord& stage, bool current, double silent_s,
+                        double warn_after_s) {
+  StageHealth h;
+  switch (stage.state) {
+    case StageState::kFailed:
+      h.level = StageHealth::Level::kError;
+      h.message = "failed: " + stage.failure;
+      return h;
+    case StageState::kDone:
+      h.message = "done" + (stage.text.empty() ? std::string() : ": " + stage.text);
+      return h;
+    case StageState::kPending:
+      h.message = current ? "waiting for the stage to start" : "pending";
+      break;
+    case StageState::kRunning:
+      h.message = stage.phase;
+      if (stage.progress >= 0)
+        h.message += " " + std::to_string(static_cast<int>(100 * stage.progress)) + " %";
+      if (!stage.text.empty()) h.message += ": " + stage.text;
+      break;
+  }
+  if (current && warn_after_s > 0 && silent_s > warn_after_s) {
+    h.level = StageHealth::Level::kWarn;
+    h.message = "silent for " + formatNumber(silent_s, 3) + " s (" + h.message + ")";
+  }
+  return h;
+}
+
 std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
                                     double baseline_m) {
   std::vector<PathPoint> path;

@@ -1,11 +1,15 @@
 #include "run_report_node.h"
 
+#include <nav_msgs/Path.h>
+
 #include <filesystem>
 #include <sstream>
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
+#include "autocal/pose2d.h"
 #include "autocal/wheels/kinematics.h"
+#include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
 
 namespace autocal {
@@ -44,6 +48,11 @@ void RunReportNodeOptions::validate() const {
                         "stage_start_timeout_s", "must be >= 0 [s]");
   ros_layer::checkParam(std::isfinite(ping_period_s) && ping_period_s > 0, "ping_period_s",
                         "must be > 0 [s]");
+  ros_layer::checkParam(std::isfinite(silent_warn_s) && silent_warn_s >= 0, "silent_warn_s",
+                        "must be >= 0 [s] (0: never warn)");
+  ros_layer::checkParam(std::isfinite(path_rate_hz) && path_rate_hz > 0, "path_rate_hz",
+                        "must be > 0 [Hz]");
+  ros_layer::checkParam(!odom_frame.empty(), "odom_frame", "must not be empty");
 }
 
 RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
@@ -62,6 +71,10 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("stage_start_timeout_s", options_.stage_start_timeout_s);
   p.get("ping_period_s", options_.ping_period_s);
   p.get("resume", options_.resume);
+  p.get("silent_warn_s", options_.silent_warn_s);
+  p.get("path_rate_hz", options_.path_rate_hz);
+  options_.odom_frame = options_.veh + "/odom";
+  p.get("odom_frame", options_.odom_frame);
   options_.validate();
   recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
 
@@ -73,6 +86,20 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
         recorder_->addEncoders(stamp.toSec(), left, right, tpr);
       },
       &error_);
+  believed_path_pub_ = nh_.advertise<nav_msgs::Path>("calibration/believed_path", 1);
+
+  // /diagnostics (issue 12 "Progress"): one status per stage and one for the run, published
+  // every ~diagnostic_period (diagnostic_updater's parameter, 1 s) of the node's clock.
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
+  diagnostics_->setHardwareID(options_.veh);
+  for (const std::string& stage : options_.stages) {
+    diagnostics_->add(stage, [this, stage](diagnostic_updater::DiagnosticStatusWrapper& status) {
+      stageDiagnostics(stage, status);
+    });
+  }
+  diagnostics_->add("run", [this](diagnostic_updater::DiagnosticStatusWrapper& status) {
+    runDiagnostics(status);
+  });
 }
 
 void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus const>& event) {
@@ -93,6 +120,69 @@ void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus 
     u.figures.emplace_back(msg.figure_names[i], msg.figure_values[i]);
   recorder_->addStatus(u);
   stage_publisher_[stage] = event.getPublisherName();
+  last_heard_[stage] = ros::Time::now();
+}
+
+void RunReportNode::stageDiagnostics(const std::string& stage,
+                                     diagnostic_updater::DiagnosticStatusWrapper& status) {
+  const StageRecord* s = recorder_->record().stage(stage);
+  if (!s) return;
+  const ros::Time now = ros::Time::now();
+  const std::string current = recorder_->currentStage();
+  if (current != diag_current_) {
+    diag_current_ = current;
+    diag_current_since_ = now;
+  }
+  // Silent since its last status, or since the run began waiting on it if that is later.
+  ros::Time since = diag_current_since_;
+  const auto heard = last_heard_.find(stage);
+  if (heard != last_heard_.end() && heard->second > since) since = heard->second;
+  const StageHealth h =
+      stageHealth(*s, stage == current, (now - since).toSec(), options_.silent_warn_s);
+  using Status = diagnostic_msgs::DiagnosticStatus;
+  status.summary(h.level == StageHealth::Level::kError  ? Status::ERROR
+                 : h.level == StageHealth::Level::kWarn ? Status::WARN
+                                                        : Status::OK,
+                 h.message);
+  status.add("state", name(s->state));
+  status.add("phase", s->phase);
+  if (s->progress >= 0) status.add("progress", s->progress);
+  if (!s->file.empty()) status.add("file", s->file);
+  for (const auto& [key, value] : s->figures) status.add(key, value);
+}
+
+void RunReportNode::runDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  const RunRecord& record = recorder_->record();
+  using Status = diagnostic_msgs::DiagnosticStatus;
+  if (!recorder_->ended()) {
+    status.summary(Status::OK, "running: the " + recorder_->currentStage() + " stage");
+  } else if (record.succeeded()) {
+    status.summary(Status::OK, "succeeded");
+  } else {
+    status.summary(Status::ERROR, "failed: " + record.failure());
+  }
+  status.add("vehicle", record.vehicle);
+  status.add("report_dir", options_.report_dir);
+}
+
+void RunReportNode::publishBelievedPath() {
+  // Only for a watcher (RViz): the whole path is integrated again each time, at path_rate_hz.
+  if (believed_path_pub_.getNumSubscribers() == 0) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_path_).toSec() < 1.0 / options_.path_rate_hz) return;
+  last_path_ = now;
+  nav_msgs::Path msg;
+  msg.header.frame_id = options_.odom_frame;
+  msg.header.stamp = ros::Time::now();
+  const ReportOptions& o = options_.report;
+  for (const PathPoint& p : believedPath(recorder_->record(), o.wheel_radius_m, o.baseline_m)) {
+    geometry_msgs::PoseStamped pose;
+    pose.header.frame_id = options_.odom_frame;
+    pose.header.stamp = ros_layer::toRosTime(p.t_s);
+    pose.pose = ros_layer::toPoseMsg(Pose2D{p.x_m, p.y_m, p.theta_rad});
+    msg.poses.push_back(pose);
+  }
+  believed_path_pub_.publish(msg);
 }
 
 void RunReportNode::checkStagesAlive() {
@@ -194,10 +284,15 @@ void RunReportNode::run() {
     if (error_) std::rethrow_exception(error_);
     checkStagesAlive();
     printProgress();
+    diagnostics_->update();
+    publishBelievedPath();
     rate.sleep();
   }
   printProgress();
   if (!recorder_->ended()) recorder_->markInterrupted("interrupted before the run ended");
+  // The run's end, at once (diagnostics are not latched: writing the report gives the message
+  // time to go out before the node exits).
+  diagnostics_->force_update();
   const ReportFiles files = write();
   const RunRecord& record = recorder_->record();
   ROS_INFO("run_report_node: wrote %s and %s", files.sheet_png.c_str(), files.summary_yaml.c_str());

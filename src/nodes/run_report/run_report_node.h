@@ -12,9 +12,13 @@
 //
 // Subscribes (relative to the robot's namespace): calibration/status,
 // left_wheel_encoder_node/tick, right_wheel_encoder_node/tick. Publishes calibration/status
-// (phase run/<step>) and, on failure, wheels_driver_node/wheels_cmd (zero). README "Report".
+// (phase run/<step>) and, on failure, wheels_driver_node/wheels_cmd (zero); for a person watching:
+// /diagnostics (diagnostic_updater: one status per stage and one for the run) and
+// calibration/believed_path (nav_msgs/Path, the encoders' dead reckoning, only while somebody
+// subscribes). README "Report".
 #pragma once
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <ros/ros.h>
 
 #include <exception>
@@ -45,6 +49,13 @@ struct RunReportNodeOptions {
   /// A resumed run (the stages' ~resume): stages this run has no status of keep what the last
   /// report says of them.
   bool resume = false;
+  /// The diagnostics WARN when the stage the run waits on has been silent this long [s, node
+  /// clock; 0: never].
+  double silent_warn_s = 10.0;
+  /// calibration/believed_path is republished at most this often [Hz, wall clock].
+  double path_rate_hz = 2.0;
+  /// The believed path's frame: where the robot started (default "<veh>/odom").
+  std::string odom_frame;
   /// Throws ConfigError naming the first bad key.
   void validate() const;
 };
@@ -60,6 +71,10 @@ class RunReportNode {
   void onStatus(const ros::MessageEvent<autocal::CalibrationStatus const>& event);
   void checkStagesAlive();
   void printProgress();
+  void stageDiagnostics(const std::string& stage,
+                        diagnostic_updater::DiagnosticStatusWrapper& status);
+  void runDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void publishBelievedPath();
   ReportFiles write();
 
   ros::NodeHandle nh_, pnh_;
@@ -72,6 +87,12 @@ class RunReportNode {
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it
   std::map<std::string, std::string> printed_;          ///< stage → last progress line printed
   std::map<std::string, int> failed_pings_;             ///< stage → pings unanswered in a row
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  std::map<std::string, ros::Time> last_heard_;  ///< stage → when its last status came
+  std::string diag_current_;                     ///< the stage the run waits on, and since when
+  ros::Time diag_current_since_;
+  ros::Publisher believed_path_pub_;
+  ros::WallTime last_path_;
   ros::WallTime last_ping_;
   ros::Time waiting_since_;
   std::string waiting_for_;

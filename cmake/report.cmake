@@ -9,6 +9,12 @@ target_link_libraries(run_report_node autocal_ros)
 target_compile_options(run_report_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(run_report_node)
 
+# Ends sim_fleet.launch when every robot's run ended; says which failed.
+add_executable(fleet_report_node src/nodes/run_report/fleet_report_main.cpp)
+target_link_libraries(fleet_report_node autocal_ros)
+target_compile_options(fleet_report_node PRIVATE ${AUTOCAL_WARNINGS})
+autocal_ros_target(fleet_report_node)
+
 # The camera image with detections for RViz (raw: Debian has no compressed image_transport plugin).
 add_executable(camera_view_node
   src/nodes/run_report/camera_view_node.cpp
@@ -77,4 +83,16 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_replay)
   add_rostest(test/report/replay.test
     DEPENDENCIES test_replay run_report_node camera_calibration_node wheel_calibration_node sim_node)
+endif()
+
+if(CATKIN_ENABLE_TESTING)
+  # Two different robots in one simulator (sim_fleet.test), each judged by its own truth.
+  add_executable(test_sim_fleet EXCLUDE_FROM_ALL test/report/test_sim_fleet.cpp)
+  target_link_libraries(test_sim_fleet autocal_core autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_sim_fleet PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_sim_fleet)
+  add_dependencies(tests test_sim_fleet)
+  add_rostest(test/report/sim_fleet.test
+    DEPENDENCIES test_sim_fleet fleet_report_node run_report_node camera_calibration_node
+    wheel_calibration_node sim_node)
 endif()

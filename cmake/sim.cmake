@@ -19,7 +19,7 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # The simulator node.
-add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp
+add_executable(sim_node sim/src/node/sim_node.cpp sim/src/node/sim_node_main.cpp sim/src/node/sim_robot.cpp
   sim/src/node/world_markers.cpp)
 target_link_libraries(sim_node autocal_sim_core autocal_ros)
 autocal_ros_target(sim_node)

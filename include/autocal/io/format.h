@@ -2,11 +2,16 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace autocal {
 
 /// `value` with `significant_digits` significant digits, shortest form (no trailing zeros), as
 /// YAML reads it back ("0.1026645779", "1e-09", "nan", "inf").
 std::string formatNumber(double value, int significant_digits = 10);
+
+/// "a, b,c" → {"a", "b", "c"}: the items of a comma-separated list, blanks trimmed, empty ones
+/// dropped (list parameters given as one string, e.g. ~stages, ~vehicles).
+std::vector<std::string> splitCommaList(const std::string& text);
 
 }  // namespace autocal

@@ -2,7 +2,9 @@
 // factor), drives the wheels from wheels_cmd (with a watchdog), and publishes what a Duckiebot
 // publishes — camera (JPEG and raw, camera_info with the NOMINAL model), wheel encoders, range —
 // plus the ground truth, on its own topics only; and for RViz the world as markers (latched), the
-// true path (only while somebody subscribes) and the robot's start as the odom frame.
+// true path (only while somebody subscribes) and the robot's start as the odom frame (SimRobot).
+// One robot in the node's namespace, or with ~vehicles a fleet on the one clock: each robot in its
+// own namespace and its own calibration area (sim_fleet.launch).
 #pragma once
 
 #include <nav_msgs/Path.h>
@@ -11,17 +13,19 @@
 #include <memory>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
+#include "sim_robot.h"
 
 namespace tf2_ros {
 class TransformBroadcaster;
 class StaticTransformBroadcaster;
-}
+}  // namespace tf2_ros
 
 namespace autocal {
 namespace sim {
@@ -41,7 +45,8 @@ struct SimNodeOptions {
   std::string vehicle;  ///< frame prefix, from the namespace
   std::string world_frame = "world";
   /// Where dead reckoning starts: a static TF world_frame → odom_frame at the robot's start, so
-  /// that RViz draws a believed path (run_report_node) over the true one. Default "<veh>/odom".
+  /// that RViz draws a believed path (run_report_node) over the true one. Empty (default):
+  /// "<veh>/odom" (always so in a fleet).
   std::string odom_frame;
   /// sim/true_path is republished at most this often [Hz, wall clock], while subscribed.
   double viz_rate_hz = 2.0;
@@ -61,6 +66,13 @@ struct SimNodeOptions {
   /// by a varying amount (a node without a camera to wait for could fall seconds behind).
   double lockstep_s = 0.0;
   double lockstep_wait_s = 3.0;
+  /// A fleet: one robot per name, each in the namespace /<name> with its own copy of the world's
+  /// calibration area (frame "<name>/area", `area_spacing_m` apart along the world's y axis; robots
+  /// of different areas never meet). Empty: one robot in the node's namespace (~vehicle).
+  std::vector<std::string> vehicles;
+  /// A fleet's robot configs, one per vehicle (empty: ~robot_config for all).
+  std::vector<std::string> robot_configs;
+  double area_spacing_m = 6.0;
   /// Throws ConfigError naming the bad "~key".
   void validate() const;
 };
@@ -78,38 +90,19 @@ class SimNode {
   void run();
 
  private:
-  void onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
   void publishClock();
-  void waitForController();
-  void publishEncoders();
-  void publishRange();
-  void publishCamera(double capture_s);
-  void publishGroundTruth();
+  /// Lockstep: waits while a robot's controller is behind (SimNodeOptions::lockstep_s).
+  void waitForControllers();
   void publishStatus(double achieved_rtf);
-  void publishVizStatic();
-  void publishTruePath();
+  double timeS() const { return robots_.front()->simulation().time_s(); }
 
   ros::NodeHandle nh_, pnh_;
   SimNodeOptions options_;
-  RobotConfig robot_;
-  WorldConfig world_;
-  std::unique_ptr<Simulation> sim_;
-  std::unique_ptr<Renderer> renderer_;
-  std::mt19937_64 camera_rng_, range_rng_;
-
-  ros::Subscriber wheels_cmd_sub_;
-  ros::Publisher clock_pub_, left_tick_pub_, right_tick_pub_, range_pub_, image_pub_,
-      compressed_pub_, camera_info_pub_, ground_truth_pub_, world_markers_pub_, true_path_pub_;
-  ros_layer::StatusPublisher status_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_tf_;
-  nav_msgs::Path true_path_;
-  ros::WallTime last_path_;
-
-  double last_cmd_s_ = -1e9;
-  bool watchdog_stopped_ = true;
-  bool have_cmd_ = false, lockstep_released_ = false;
-  std::string camera_frame_, range_frame_, ground_truth_frame_;
+  std::vector<std::unique_ptr<SimRobot>> robots_;
+  ros::Publisher clock_pub_;
+  ros_layer::StatusPublisher status_;
 };
 
 }  // namespace sim

@@ -17,22 +17,6 @@ namespace report {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-std::vector<std::string> splitList(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    item.erase(0, item.find_first_not_of(" \t"));
-    item.erase(item.find_last_not_of(" \t") + 1);
-    if (!item.empty()) out.push_back(item);
-  }
-  return out;
-}
-
-}  // namespace
-
 void RunReportNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
@@ -62,7 +46,7 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("calibration_root", options_.calibration_root);
   std::string stages = "camera,wheels";
   p.get("stages", stages);
-  options_.stages = splitList(stages);
+  options_.stages = splitCommaList(stages);
   p.get("report_dir", options_.report_dir);
   if (options_.report_dir.empty())
     options_.report_dir = (fs::path(options_.calibration_root) / "report" / options_.veh).string();

@@ -1,0 +1,265 @@
+// One simulated robot of sim_node (see sim_robot.h).
+#include "sim_robot.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Range.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+
+#include "autocal_ros/msg_conversion.h"
+#include "sim_node.h"
+#include "world_markers.h"
+
+namespace autocal {
+namespace sim {
+
+bool Schedule::due(double t_s, double dt_s) {
+  if (t_s + 0.5 * dt_s < next_s) return false;
+  next_s += period_s;
+  if (next_s < t_s) next_s = t_s + period_s;
+  return true;
+}
+
+SimRobot::SimRobot(ros::NodeHandle nh, const SimNodeOptions& options, const std::string& vehicle,
+                   const RobotConfig& robot, const WorldConfig& world, int seed,
+                   const std::string& area_frame, const Pose2& area_offset,
+                   tf2_ros::TransformBroadcaster& tf,
+                   tf2_ros::StaticTransformBroadcaster& static_tf)
+    : nh_(nh),
+      options_(options),
+      vehicle_(vehicle),
+      robot_(robot),
+      world_(world),
+      area_frame_(area_frame),
+      area_offset_(area_offset),
+      tf_(tf),
+      static_tf_(static_tf),
+      camera_rng_(0),
+      range_rng_(0) {
+  SimulationOptions sim_options;
+  sim_options.physics_rate_hz = options_.physics_rate_hz;
+  sim_ = std::make_unique<Simulation>(robot_, world_, sim_options);
+  // Every random source has its own seed derived from the robot's seed.
+  camera_rng_.seed(static_cast<uint64_t>(seed) * 2 + 1);
+  range_rng_.seed(static_cast<uint64_t>(seed) * 2 + 2);
+  if (options_.camera_enabled) {
+    RenderOptions render;
+    render.supersampling = robot_.camera.supersampling;
+    render.noise_sigma = robot_.camera.noise_sigma;
+    render.noise_seed = static_cast<uint64_t>(seed);
+    renderer_ = std::make_unique<Renderer>(robot_.camera, world_, render);
+  }
+  encoders_.period_s = 1.0 / robot_.encoder_rate_hz;
+  range_.period_s = 1.0 / robot_.range_sensor.rate_hz;
+  camera_.period_s = 1.0 / robot_.camera.rate_hz;
+  truth_.period_s = 1.0 / options_.ground_truth_rate_hz;
+
+  camera_frame_ = vehicle_ + "/camera_optical_frame";
+  range_frame_ = vehicle_ + "/front_center_tof_link";
+  ground_truth_frame_ = vehicle_ + "/ground_truth/base_link";
+  odom_frame_ = options_.odom_frame.empty() ? vehicle_ + "/odom" : options_.odom_frame;
+
+  // Deep queues for the small messages: at real_time_factor 0 the simulator publishes them
+  // hundreds of times faster than real time, and a subscriber that lags a few milliseconds must
+  // not lose them.
+  const int small_queue = 1000;
+  left_tick_pub_ =
+      nh_.advertise<dtmsg::WheelEncoderStamped>("left_wheel_encoder_node/tick", small_queue);
+  right_tick_pub_ =
+      nh_.advertise<dtmsg::WheelEncoderStamped>("right_wheel_encoder_node/tick", small_queue);
+  range_pub_ = nh_.advertise<sensor_msgs::Range>("front_center_tof_driver_node/range", small_queue);
+  compressed_pub_ = nh_.advertise<sensor_msgs::CompressedImage>("camera_node/image/compressed", 5);
+  image_pub_ = nh_.advertise<sensor_msgs::Image>("camera_node/image/raw", 5);
+  camera_info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_node/camera_info", small_queue);
+  ground_truth_pub_ = nh_.advertise<nav_msgs::Odometry>("sim/ground_truth", small_queue);
+  world_markers_pub_ =
+      nh_.advertise<visualization_msgs::MarkerArray>("sim/world_markers", 1, /*latch=*/true);
+  true_path_pub_ = nh_.advertise<nav_msgs::Path>("sim/true_path", 1);
+  true_path_.header.frame_id = area_frame_;
+  wheels_cmd_sub_ =
+      nh_.subscribe("wheels_driver_node/wheels_cmd", 10, &SimRobot::onWheelsCmd, this);
+}
+
+SimRobot::~SimRobot() = default;
+
+bool SimRobot::behind() const {
+  return options_.lockstep_s > 0 && have_cmd_ && !lockstep_released_ &&
+         sim_->time_s() - last_cmd_s_ > options_.lockstep_s;
+}
+
+void SimRobot::step() {
+  sim_->step();
+  if (!watchdog_stopped_ && sim_->time_s() - last_cmd_s_ > options_.wheels_cmd_timeout_s) {
+    sim_->setDuty(0.0, 0.0);
+    watchdog_stopped_ = true;
+    ROS_WARN_THROTTLE(5.0, "sim: %s: no wheels_cmd for %.2f s: wheels stopped", vehicle_.c_str(),
+                      options_.wheels_cmd_timeout_s);
+  }
+}
+
+void SimRobot::publishDue() {
+  const double t = sim_->time_s(), dt = sim_->timestep_s();
+  if (encoders_.due(t, dt)) publishEncoders();
+  if (range_.due(t, dt)) publishRange();
+  if (truth_.due(t, dt)) {
+    publishGroundTruth();
+    publishTruePath();
+  }
+  if (renderer_ && camera_.due(t, dt)) publishCamera(t);
+}
+
+void SimRobot::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
+  const WheelDuties duties = ros_layer::fromWheelsCmd(*msg);
+  double left = duties.left, right = duties.right;
+  if (!std::isfinite(left) || !std::isfinite(right)) {
+    ROS_WARN_THROTTLE(1.0, "sim: dropped a wheels_cmd with a non-finite duty (%f, %f)", left,
+                      right);
+    return;
+  }
+  if (std::abs(left) > 1 || std::abs(right) > 1) {
+    ROS_WARN_THROTTLE(1.0, "sim: wheels_cmd duty beyond [-1, 1] clamped (%f, %f)", left, right);
+    left = std::clamp(left, -1.0, 1.0);
+    right = std::clamp(right, -1.0, 1.0);
+  }
+  sim_->setDuty(left, right);
+  last_cmd_s_ = sim_->time_s();
+  watchdog_stopped_ = false;
+  have_cmd_ = true;
+  lockstep_released_ = false;
+}
+
+void SimRobot::publishEncoders() {
+  for (Side side : {Side::kLeft, Side::kRight}) {
+    const EncoderReading reading{sim_->time_s(), sim_->encoderTicks(side),
+                                 robot_.encoder_resolution};
+    const std::string frame =
+        vehicle_ + (side == Side::kLeft ? "/left_wheel_axis" : "/right_wheel_axis");
+    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_)
+        .publish(ros_layer::toEncoderMsg(reading, frame));
+  }
+}
+
+void SimRobot::publishRange() {
+  const RangeSensorConfig& s = robot_.range_sensor;
+  sensor_msgs::Range msg;
+  msg.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  msg.header.frame_id = range_frame_;
+  msg.radiation_type = sensor_msgs::Range::INFRARED;
+  msg.field_of_view = static_cast<float>(s.field_of_view_rad);
+  msg.min_range = static_cast<float>(s.min_range_m);
+  msg.max_range = static_cast<float>(s.max_range_m);
+  msg.range = static_cast<float>(sim_->measureRange(range_rng_));
+  range_pub_.publish(msg);
+}
+
+void SimRobot::publishCamera(double capture_s) {
+  const bool want_compressed = compressed_pub_.getNumSubscribers() > 0;
+  const bool want_raw = image_pub_.getNumSubscribers() > 0;
+  const double exposure = robot_.camera.exposure_s;
+  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * exposure);  // mid-exposure
+  sensor_msgs::CameraInfo info = ros_layer::toCameraInfo(robot_.camera.nominal);
+  info.header.stamp = t;
+  info.header.frame_id = camera_frame_;
+  camera_info_pub_.publish(info);
+  if (!want_compressed && !want_raw) return;  // nobody looks: skip the rendering
+
+  const cv::Mat image =
+      renderer_->render(sim_->exposurePoses(capture_s, options_.max_blur_samples), camera_rng_);
+
+  if (want_compressed) {
+    sensor_msgs::CompressedImage msg;
+    msg.header.stamp = t;
+    msg.header.frame_id = camera_frame_;
+    msg.format = "jpeg";
+    cv::imencode(".jpg", image, msg.data, {cv::IMWRITE_JPEG_QUALITY, robot_.camera.jpeg_quality});
+    compressed_pub_.publish(msg);
+  }
+  if (want_raw) {
+    sensor_msgs::Image msg;
+    msg.header.stamp = t;
+    msg.header.frame_id = camera_frame_;
+    msg.height = static_cast<uint32_t>(image.rows);
+    msg.width = static_cast<uint32_t>(image.cols);
+    msg.encoding = "bgr8";
+    msg.step = static_cast<uint32_t>(image.step);
+    msg.data.assign(image.datastart, image.dataend);
+    image_pub_.publish(msg);
+  }
+}
+
+void SimRobot::publishGroundTruth() {
+  const Pose2 p = sim_->pose();
+  nav_msgs::Odometry odom;
+  odom.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  odom.header.frame_id = area_frame_;
+  odom.child_frame_id = ground_truth_frame_;
+  odom.pose.pose = ros_layer::toPoseMsg(p);
+  odom.twist.twist.linear.x = sim_->forwardSpeed();
+  odom.twist.twist.angular.z = sim_->yawRate();
+  ground_truth_pub_.publish(odom);
+  geometry_msgs::TransformStamped tf;
+  tf.header = odom.header;
+  tf.child_frame_id = ground_truth_frame_;
+  tf.transform = ros_layer::toTransformMsg(p);
+  tf_.sendTransform(tf);
+
+  // The true path, thinned to a pose per path_step_m or 0.02 rad: cheap enough to keep always,
+  // published only when somebody looks (publishTruePath).
+  if (!true_path_.poses.empty()) {
+    const Pose2 last = ros_layer::fromPoseMsg(true_path_.poses.back().pose);
+    const double turned = std::abs(std::remainder(p.yaw_rad - last.yaw_rad, 2 * M_PI));
+    if (std::hypot(p.x_m - last.x_m, p.y_m - last.y_m) < options_.path_step_m && turned < 0.02)
+      return;
+  }
+  geometry_msgs::PoseStamped pose;
+  pose.header = odom.header;
+  pose.pose = odom.pose.pose;
+  true_path_.poses.push_back(pose);
+  auto& poses = true_path_.poses;
+  if (poses.size() > static_cast<size_t>(options_.path_max_poses))  // a tenth at a time
+    poses.erase(poses.begin(), poses.begin() + std::max<size_t>(1, poses.size() / 10));
+}
+
+void SimRobot::publishVizStatic() {
+  visualization_msgs::MarkerArray markers = worldMarkers(world_, area_frame_);
+  const visualization_msgs::MarkerArray robot = robotMarkers(robot_, ground_truth_frame_);
+  markers.markers.insert(markers.markers.end(), robot.markers.begin(), robot.markers.end());
+  world_markers_pub_.publish(markers);
+  geometry_msgs::TransformStamped start;
+  start.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  start.header.frame_id = area_frame_;
+  start.child_frame_id = odom_frame_;
+  start.transform = ros_layer::toTransformMsg(world_.robot_start);
+  std::vector<geometry_msgs::TransformStamped> statics{start};
+  if (area_frame_ != options_.world_frame) {  // a fleet: the area in the world
+    geometry_msgs::TransformStamped area = start;
+    area.header.frame_id = options_.world_frame;
+    area.child_frame_id = area_frame_;
+    area.transform = ros_layer::toTransformMsg(area_offset_);
+    statics.push_back(area);
+  }
+  // One broadcaster for the whole node: /tf_static is latched, and a second one in the same
+  // process would replace the first's transforms for late subscribers.
+  static_tf_.sendTransform(statics);
+}
+
+void SimRobot::publishTruePath() {
+  if (true_path_pub_.getNumSubscribers() == 0) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if ((now - last_path_).toSec() < 1.0 / options_.viz_rate_hz) return;
+  last_path_ = now;
+  true_path_.header.stamp = ros_layer::toRosTime(sim_->time_s());
+  true_path_pub_.publish(true_path_);
+}
+
+}  // namespace sim
+}  // namespace autocal

@@ -22,6 +22,30 @@ struct RangeReading {
   double max_range_m = 0.0;  ///< [m]
 };
 
+/// The latest reading of both wheels' encoders and when either last changed: what "the wheels are
+/// still" is decided on. Readings older than the latest are ignored.
+struct EncoderTrack {
+  bool valid = false;
+  double stamp_s = -1.0;        ///< the latest reading's [s]
+  double last_change_s = -1.0;  ///< when a count last changed (the first reading counts) [s]
+  int left = 0, right = 0;      ///< cumulative ticks
+
+  /// False (and ignored) when older than the latest reading.
+  bool add(double reading_stamp_s, int left_ticks, int right_ticks) {
+    if (valid && reading_stamp_s < stamp_s) return false;
+    if (!valid || left_ticks != left || right_ticks != right) last_change_s = reading_stamp_s;
+    valid = true;
+    stamp_s = reading_stamp_s;
+    left = left_ticks;
+    right = right_ticks;
+    return true;
+  }
+  /// A reading at or after `since_s`, and no count changed for `still_s` before it.
+  bool stillSince(double since_s, double still_s) const {
+    return valid && stamp_s >= since_s && stamp_s - last_change_s >= still_s;
+  }
+};
+
 /// Duties of the two motors, −1..1 (Duckietown's wheels_cmd vel_left/vel_right).
 struct WheelDuties {
   double left = 0.0;

@@ -62,9 +62,7 @@ class SweepReplay {
   bool taken_ = true;  ///< the current stop's frame was taken (nothing to take before a stop)
   double stop_s_ = 0;
   int stops_ = 0;
-  bool have_encoders_ = false;
-  double encoder_stamp_s_ = -1, last_change_s_ = -1;
-  int left_ = 0, right_ = 0;
+  EncoderTrack encoders_;
   std::map<int, cv::Mat> frames_;
   bool frames_seen_ = false;
   double first_frame_s_ = 0, last_frame_s_ = 0;

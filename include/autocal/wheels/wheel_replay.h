@@ -90,9 +90,8 @@ class WheelReplay {
   WheelRunOptions options_;
   std::unique_ptr<markers::TagDetector> detector_;
   std::vector<Segment> segments_;
-  bool have_encoders_ = false;
-  double encoder_stamp_s_ = -1, last_change_s_ = -1;
-  int left_ = 0, right_ = 0, ticks_per_rev_ = 0;
+  EncoderTrack encoders_;
+  int ticks_per_rev_ = 0;
 };
 
 }  // namespace wheels

@@ -7,25 +7,14 @@
 // own namespace and its own calibration area (sim_fleet.launch).
 #pragma once
 
-#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 
 #include <memory>
-#include <random>
 #include <string>
 #include <vector>
 
-#include "autocal/sim/config.h"
-#include "autocal/sim/renderer.h"
-#include "autocal/sim/simulation.h"
-#include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
-#include "sim_robot.h"
-
-namespace tf2_ros {
-class TransformBroadcaster;
-class StaticTransformBroadcaster;
-}  // namespace tf2_ros
+#include "sim_robot.h"  // the robots, and tf2_ros's broadcasters declared
 
 namespace autocal {
 namespace sim {

@@ -25,12 +25,7 @@ void SweepReplay::addCommand(double stamp_s, const WheelDuties& duties) {
 }
 
 void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks) {
-  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
-  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
-  have_encoders_ = true;
-  encoder_stamp_s_ = stamp_s;
-  left_ = left_ticks;
-  right_ = right_ticks;
+  encoders_.add(stamp_s, left_ticks, right_ticks);
 }
 
 void SweepReplay::setCollecting(double stamp_s, bool collecting) {
@@ -42,12 +37,12 @@ void SweepReplay::setCollecting(double stamp_s, bool collecting) {
 }
 
 bool SweepReplay::wantsFrame(double stamp_s) const {
-  if (!collecting_ || moving_ || taken_ || !have_encoders_) return false;
+  if (!collecting_ || moving_ || taken_ || !encoders_.valid) return false;
   // SweepRun::settled: settle_s after the stop, then the encoders still for still_s, or
   // max_settle_s after the stop whatever they say.
   if (stamp_s < stop_s_ + options_.sweep.settle_s) return false;
   if (stamp_s >= stop_s_ + options_.sweep.max_settle_s) return true;
-  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+  return encoders_.stillSince(stop_s_, options_.still_s);
 }
 
 bool SweepReplay::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {

@@ -41,8 +41,8 @@ void WheelReplay::addCommand(double stamp_s, const WheelDuties& duties) {
   Segment s;
   s.kind = kind;
   s.start_s = stamp_s;
-  s.start_left = left_;
-  s.start_right = right_;
+  s.start_left = encoders_.left;
+  s.start_right = encoders_.right;
   s.drive.duties = {std::abs(duties.left), std::abs(duties.right)};
   s.drive.start_s = stamp_s;
   segments_.push_back(std::move(s));
@@ -52,15 +52,10 @@ void WheelReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
                               int ticks_per_revolution) {
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution must be > 0 ticks per revolution");
-  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
-  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
-  if (!have_encoders_) {
+  if (!encoders_.valid) {
     for (Segment& s : segments_) s.start_left = left_ticks, s.start_right = right_ticks;
   }
-  have_encoders_ = true;
-  encoder_stamp_s_ = stamp_s;
-  left_ = left_ticks;
-  right_ = right_ticks;
+  if (!encoders_.add(stamp_s, left_ticks, right_ticks)) return;
   ticks_per_rev_ = ticks_per_revolution;
   Segment& s = segments_.back();
   if (s.kind == Kind::kForward || s.kind == Kind::kBack)
@@ -78,10 +73,10 @@ bool WheelReplay::stillMeasured(const Segment& s) const {
 
 bool WheelReplay::wantsFrame(double stamp_s) const {
   const Segment& s = segments_.back();
-  if (s.kind != Kind::kStill || !have_encoders_ || stillMeasured(s)) return false;
+  if (s.kind != Kind::kStill || !encoders_.valid || stillMeasured(s)) return false;
   if (stamp_s < s.start_s + options_.settle_s) return false;
   if (stamp_s >= s.start_s + kMaxSettleS) return true;
-  return encoder_stamp_s_ >= s.start_s && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+  return encoders_.stillSince(s.start_s, options_.still_s);
 }
 
 void WheelReplay::detectInto(Segment& s, const cv::Mat& image) {
@@ -138,7 +133,7 @@ WheelReplayResult WheelReplay::result() const {
       return left ? segments_[i + 2].start_left : segments_[i + 2].start_right;
     if (i + 1 < n && segments_[i + 1].kind != Kind::kStill)
       return left ? segments_[i + 1].start_left : segments_[i + 1].start_right;
-    return left ? left_ : right_;
+    return left ? encoders_.left : encoders_.right;
   };
   bool last_forward_counted = false;
   for (size_t i = 0; i < n; ++i) {

@@ -116,6 +116,19 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   return o;
 }
 
+/// The DONE figures of a calibration, live or replayed.
+ros_layer::StatusPublisher::Figures resultFigures(const CalibrationResult& result) {
+  const CameraIntrinsics& in = result.intrinsics;
+  return {{"fx", in.fx},
+          {"fy", in.fy},
+          {"cx", in.cx},
+          {"cy", in.cy},
+          {"k1", in.distortion_coefficients[0]},
+          {"k2", in.distortion_coefficients[1]},
+          {"rms_px", result.rms_px},
+          {"views", static_cast<double>(result.used_views.size())}};
+}
+
 }  // namespace
 
 CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
@@ -358,18 +371,11 @@ void CameraCalibrationNode::runPassive() {
       "RMS %.3f px over %zu views (%s), %d stops",
       path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
       result.used_views.size(), result.fitted_terms.c_str(), replay_->stops());
-  status_.done("camera/write", "wrote " + path,
-               {{"fx", in.fx},
-                {"fy", in.fy},
-                {"cx", in.cx},
-                {"cy", in.cy},
-                {"k1", in.distortion_coefficients[0]},
-                {"k2", in.distortion_coefficients[1]},
-                {"rms_px", result.rms_px},
-                {"views", static_cast<double>(result.used_views.size())},
-                {"stops", static_cast<double>(replay_->stops())},
-                {"sweep_s", replay_->elapsedS()},
-                {"frames_dropped", static_cast<double>(frames_->dropped())}});
+  ros_layer::StatusPublisher::Figures figures = resultFigures(result);
+  figures.insert(figures.end(), {{"stops", static_cast<double>(replay_->stops())},
+                                 {"sweep_s", replay_->elapsedS()},
+                                 {"frames_dropped", static_cast<double>(frames_->dropped())}});
+  status_.done("camera/write", "wrote " + path, figures);
 }
 
 std::string CameraCalibrationNode::write(const CalibrationResult& result,
@@ -409,21 +415,14 @@ void CameraCalibrationNode::finish() {
     }
   }
   const MinDutyResult d = run_->minDuty();
-  status_.done("camera/write", "wrote " + path,
-               {{"fx", in.fx},
-                {"fy", in.fy},
-                {"cx", in.cx},
-                {"cy", in.cy},
-                {"k1", in.distortion_coefficients[0]},
-                {"k2", in.distortion_coefficients[1]},
-                {"rms_px", result.rms_px},
-                {"views", static_cast<double>(result.used_views.size())},
-                {"sweep_s", run_->elapsedS()},
-                {"frames_dropped", static_cast<double>(frames_->dropped())},
-                {"min_duty_left_forward", d.left_forward},
-                {"min_duty_left_backward", d.left_backward},
-                {"min_duty_right_forward", d.right_forward},
-                {"min_duty_right_backward", d.right_backward}});
+  ros_layer::StatusPublisher::Figures figures = resultFigures(result);
+  figures.insert(figures.end(), {{"sweep_s", run_->elapsedS()},
+                                 {"frames_dropped", static_cast<double>(frames_->dropped())},
+                                 {"min_duty_left_forward", d.left_forward},
+                                 {"min_duty_left_backward", d.left_backward},
+                                 {"min_duty_right_forward", d.right_forward},
+                                 {"min_duty_right_backward", d.right_backward}});
+  status_.done("camera/write", "wrote " + path, figures);
 }
 
 }  // namespace camera

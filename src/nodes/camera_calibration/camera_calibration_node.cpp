@@ -195,6 +195,11 @@ void CameraCalibrationNode::connect() {
     ros::WallDuration(0.01).sleep();
   }
   wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+  // The first command must not be lost: a simulator in lockstep holds its clock until a command
+  // comes (WheelsCommander::waitForSubscriber).
+  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
+    ROS_WARN("camera_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
+  }
 }
 
 template <typename F>

@@ -139,6 +139,11 @@ void WheelCalibrationNode::connect() {
     ros::WallDuration(0.01).sleep();
   }
   wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+  // The first command must not be lost: a simulator in lockstep holds its clock until a command
+  // comes (WheelsCommander::waitForSubscriber).
+  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
+    ROS_WARN("wheel_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
+  }
 }
 
 void WheelCalibrationNode::publishDetections(const ros::Time& stamp) {

@@ -90,6 +90,16 @@ void WheelsCommander::stop(double repeat_s, double wait_for_subscriber_s) {
   } while (ros::WallTime::now() < end && ros::ok());
 }
 
+bool WheelsCommander::waitForSubscriber(double timeout_s) {
+  if (!pub_) return false;
+  // Wall time: a simulator in lockstep holds its clock until the first command.
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  while (pub_.getNumSubscribers() == 0 && ros::WallTime::now() < end && ok()) {
+    ros::WallDuration(0.005).sleep();
+  }
+  return pub_.getNumSubscribers() > 0;
+}
+
 int runNode(int argc, char** argv, const NodeRunOptions& options,
             const std::function<void(ros::NodeHandle, ros::NodeHandle)>& body) {
   ros::init(argc, argv, options.name, ros::init_options::NoSigintHandler);

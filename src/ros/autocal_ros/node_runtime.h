@@ -51,6 +51,13 @@ class WheelsCommander {
   /// (waiting up to `wait_for_subscriber_s` for one), so that a dropped message cannot leave the
   /// wheels turning.
   void stop(double repeat_s = 0.3, double wait_for_subscriber_s = 1.0);
+  /// Waits up to `timeout_s` [wall s] until a subscriber (the wheels' driver, the simulator) is
+  /// connected; true when one is. A node that starts driving calls it once after advertising: a
+  /// command published before the subscriber connected is lost, and a simulator in lockstep
+  /// (sim_node ~lockstep_s) holds its clock until a command arrives, so a control loop sleeping
+  /// on that clock would wait for a command it already sent (until the simulator gives up after
+  /// ~lockstep_wait_s of wall time and runs free, at real_time_factor 0 far ahead of the node).
+  bool waitForSubscriber(double timeout_s);
   bool valid() const { return static_cast<bool>(pub_); }
 
  private:

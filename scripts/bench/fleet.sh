@@ -19,6 +19,8 @@ echo
 echo "| robots | succeeded | wall [s] | wall per robot [s] | sim time [s] | real-time factor | one after another [s] | fleet / one after another |"
 echo "|---|---|---|---|---|---|---|---|"
 single=""
+failures=""
+keep=0
 for n in $sizes; do
   log="$root/fleet_$n.log"
   start=$(date +%s.%N)
@@ -38,7 +40,19 @@ for n in $sizes; do
   printf "| %d | %d of %d | %.0f | %.0f | %.0f | %.2f | %s | %s |\n" "$n" "$ok" "$n" "$wall" \
     "$(awk "BEGIN{print $wall / $n}")" "${sim:-0}" "$rtf" "$peer" "$ratio"
   echo "bench/fleet: n=$n: $ok of $n succeeded, wall $wall s, sim ${sim:-?} s" >&2
+  if [ "$ok" != "$n" ]; then
+    failures="$failures$(grep "sim_fleet: robot.*FAILED" "$log" | sed "s/^/n=$n: /")"$'\n'
+    keep=1
+  fi
 done
 echo
 echo "Wall time includes each launch's start (about 5 s). Reproduce: \`FLEET_SIZES=\"1 2 4 8\" scripts/bench/fleet.sh\`."
-rm -rf "$root"
+if [ -n "$failures" ]; then
+  echo
+  echo "Failed robots (logs kept in $root):"
+  echo
+  echo '```'
+  printf "%s" "$failures"
+  echo '```'
+fi
+[ "$keep" = 1 ] || rm -rf "$root"

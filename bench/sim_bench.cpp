@@ -138,6 +138,7 @@ int main(int argc, char** argv) {
     RenderOptions today = options;
     today.still_reuse_px = -1;
     today.blur_block_sums = false;
+    today.blur_half_res_poses = 0;
 
     // Render time: still frames at headings all around the start (boards in view or not), today's
     // renderer and now's alternately on the same pose, so that the machine's load hits both alike.
@@ -240,10 +241,13 @@ int main(int argc, char** argv) {
         "times are the thread's CPU time (robust to other load), real-time factors are simulated s "
         "per CPU s.\n"
         "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px:\n"
-        "-1`; blurred frames add every pose's blends into the image, `blur_block_sums: false`),\n"
+        "-1`; blurred frames add every pose's blends into the image, `blur_block_sums: false`,\n"
+        "every pose at full resolution, `blur_half_res_poses: 0`),\n"
         "run side by side in the same process; \"now\" is the default (a still frame within %.2g\n"
         "px of the last rendered still frame reuses its noiseless image and gets fresh noise; a\n"
-        "blurred frame sums its poses' 4x4 blends per block and blends each block once). Both\n"
+        "blurred frame sums its poses' 4x4 blends per block and blends each block once, and one\n"
+        "of 4 or more poses renders about half of them at half resolution and scales the average\n"
+        "up). Both\n"
         "columns share two changes that leave the images as they were: a still frame writes its\n"
         "pixels (no clearing pass), and the noise and the rounding to 8 bits go row by row (no\n"
         "image-sized float buffer in between).\n\n",

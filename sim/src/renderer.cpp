@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
 #include "autocal/sim/scene.h"
@@ -677,9 +678,27 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
   px_per_rad_ = std::isfinite(finest_rad) && finest_rad > 0 ? 1.0 / finest_rad : 0.0;
   // A table of standard normal samples, four images long, so that a frame's noise never repeats
   // within the frame; each frame starts at a random offset (drawn from the caller's seeded rng).
+  // Half resolution for blurred frames of many poses: half-pixel (u', v') covers pixels 2u'..2u'+1,
+  // so its centre 2u' + 0.5 is pixel coordinate u: u' = (u - 0.5) / 2 (cv::resize's bilinear
+  // scaling by 2 samples it there).
+  if (options_.blur_half_res_poses > 0 && width_ % 8 == 0 && height_ % 8 == 0) {
+    CameraConfig half = camera;
+    half.truth.width = width_ / 2;
+    half.truth.height = height_ / 2;
+    half.truth.fx = 0.5 * camera.truth.fx;
+    half.truth.fy = 0.5 * camera.truth.fy;
+    half.truth.cx = 0.5 * (camera.truth.cx - 0.5);
+    half.truth.cy = 0.5 * (camera.truth.cy - 0.5);
+    RenderOptions half_options = options_;
+    half_options.blur_half_res_poses = 0;
+    half_options.supersampling = 1;
+    half_options.noise_sigma = 0;
+    half_ = std::make_unique<Renderer>(half, world, half_options);
+  }
   std::mt19937_64 gen(options_.noise_seed);
   std::normal_distribution<float> normal(0.0f, 1.0f);
-  noise_table_.resize(static_cast<size_t>(width_) * height_ * 3 * 4);
+  // (A renderer without noise, the half-resolution one, keeps no table.)
+  noise_table_.resize(options_.noise_sigma > 0 ? static_cast<size_t>(width_) * height_ * 3 * 4 : 0);
   for (float& x : noise_table_) x = normal(gen);
 }
 
@@ -890,8 +909,18 @@ double Renderer::imageMotionBoundPx(const Pose2& a, const Pose2& b, double neare
   return px_per_rad_ * (turn_rad + (nearest_m > 0 ? shift_m / nearest_m : std::numeric_limits<double>::infinity()));
 }
 
-cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const {
-  if (poses.empty()) throw InputError("renderer: no pose to render");
+const cv::Mat& Renderer::renderNoiseless(const std::vector<Pose2>& poses) const {
+  if (half_ && poses.size() > 1 && poses.size() >= static_cast<size_t>(options_.blur_half_res_poses)) {
+    ++blurred_half_res_;
+    // About one pose per pixel moved: at half resolution n / 2 + 1 of them, the first and the last
+    // kept and none more than two apart, still put the poses within a pixel of each other.
+    const size_t n = poses.size(), m = n / 2 + 1;
+    std::vector<Pose2> spaced(m);
+    for (size_t k = 0; k < m; ++k) spaced[k] = poses[(2 * k * (n - 1) + (m - 1)) / (2 * (m - 1))];
+    cv::resize(half_->renderNoiseless(spaced), upscaled_, cv::Size(width_, height_), 0, 0,
+               cv::INTER_LINEAR);
+    return upscaled_;
+  }
   // A still frame near the last one reuses its noiseless image (the noise below is fresh).
   const bool still = poses.size() == 1;
   const bool reuse = still && options_.still_reuse_px >= 0 && !still_image_.empty() &&
@@ -928,13 +957,23 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
       still_nearest_m_ = nearest_m_;
     }
   }
+  return acc;
+}
+
+cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const {
+  if (poses.empty()) throw InputError("renderer: no pose to render");
+  const cv::Mat& acc = renderNoiseless(poses);
+  cv::Mat out(height_, width_, CV_8UC3);
+  if (noise_table_.empty()) {  // no noise
+    acc.convertTo(out, CV_8UC3);
+    return out;
+  }
   const size_t n = static_cast<size_t>(width_) * height_ * 3;
   const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
   // Noise added, then rounded and saturated to 0..255, row by row through a one-row buffer that
   // stays in the cache (an image-sized float buffer in between cost memory traffic: a large part
   // of a frame's time is moving image-sized buffers).
   const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
-  cv::Mat out(height_, width_, CV_8UC3);
   for (int v = 0; v < height_; ++v) {
     cv::scaleAdd(noise.row(v), options_.noise_sigma, acc.row(v), noisy_row_);
     noisy_row_.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255

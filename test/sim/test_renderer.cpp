@@ -284,6 +284,51 @@ TEST(SimRenderer, MotionDuringExposureBlursTheImage) {
   for (int k = 0; k < 8; ++k) turning.push_back({0, 0, 0.004 * k});  // ~1.3 px per sample
   const cv::Mat blurred = renderer.render(turning, rng);
   EXPECT_LT(sharpness(blurred), 0.7 * sharpness(still));
+  EXPECT_EQ(renderer.blurredFramesHalfRes(), 1u);  // 8 poses: at half resolution
+}
+
+// A blurred frame of many poses is rendered at half resolution and scaled up: it must land where
+// the full-resolution poses put the scene (no half-pixel shift from the scaling) and look alike.
+// Four poses that coincide isolate the resolution from the motion; the boards' corners, found in
+// both images, measure where they land: on average within 0.2 px (a scaling off by half a pixel
+// would shift them by 0.25-0.5 px), each within 1.5 px (neither image's poses are anti-aliased,
+// and the half-resolution ones step in 2 px).
+TEST(SimRenderer, HalfResolutionBlurLandsWhereFullResolutionPosesDo) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::RenderOptions half = optionsOf(robot.camera), full = half;
+  half.noise_sigma = full.noise_sigma = 0;
+  full.blur_half_res_poses = 0;
+  const sim::WorldConfig world = defaultWorld();
+  sim::Renderer halved(robot.camera, world, half), whole(robot.camera, world, full);
+  std::mt19937_64 rng(1);
+  int boards = 0;
+  for (const double yaw : {0.0, 0.5, -2.6}) {  // boards; boards and a wall; the floor tags
+    const std::vector<sim::Pose2> poses(4, sim::Pose2{0, 0, yaw});
+    cv::Mat a, b;
+    cv::cvtColor(halved.render(poses, rng), a, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(whole.render(poses, rng), b, cv::COLOR_BGR2GRAY);
+    cv::Mat diff;
+    cv::absdiff(a, b, diff);
+    EXPECT_LT(cv::mean(diff)[0], 4.0) << "yaw " << yaw;
+    std::vector<cv::Point2f> ca, cb;
+    if (!cv::findChessboardCorners(a, cv::Size(7, 5), ca) ||
+        !cv::findChessboardCorners(b, cv::Size(7, 5), cb)) {
+      continue;
+    }
+    ++boards;
+    const cv::TermCriteria stop(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 0.001);
+    cv::cornerSubPix(a, ca, cv::Size(5, 5), cv::Size(-1, -1), stop);
+    cv::cornerSubPix(b, cb, cv::Size(5, 5), cv::Size(-1, -1), stop);
+    cv::Point2f mean_shift(0, 0);
+    for (size_t i = 0; i < ca.size(); ++i) {
+      EXPECT_LT(cv::norm(ca[i] - cb[i]), 1.5) << "yaw " << yaw << " corner " << i;
+      mean_shift += (ca[i] - cb[i]) * (1.0f / static_cast<float>(ca.size()));
+    }
+    EXPECT_LT(cv::norm(mean_shift), 0.2) << "yaw " << yaw << ": " << mean_shift;
+  }
+  EXPECT_GE(boards, 2);
+  EXPECT_EQ(halved.blurredFramesHalfRes(), 3u);
+  EXPECT_EQ(whole.blurredFramesHalfRes(), 0u);
 }
 
 }  // namespace

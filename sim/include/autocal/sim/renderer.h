@@ -41,6 +41,15 @@ struct RenderOptions {
   /// once, not added into the image at every pose (the same image up to float rounding). False:
   /// every pose's blends added into the image (the code before; for the benchmark's side-by-side).
   bool blur_block_sums = true;
+  /// A blurred frame of at least this many poses (the simulator takes about one pose per pixel
+  /// the image moves during the exposure) renders n / 2 + 1 of its n poses (the first and the
+  /// last, none more than two apart: still about one per pixel of that resolution) at half
+  /// resolution, 2 x 2 pixels to a pixel, and scales the average up (bilinear): about a sixth of
+  /// the rays. Its motion smears it by
+  /// at least this many pixels along the motion anyway; across the motion it is softened by about
+  /// one pixel more than the full-resolution poses would give. 0: every pose at full resolution
+  /// (the code before; for the benchmark's side by side). Still frames never change.
+  int blur_half_res_poses = 4;
 };
 
 class Scene;
@@ -66,6 +75,9 @@ class Renderer {
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
   cv::Mat renderExact(const Pose2& pose) const;
 
+  /// Blurred frames rendered at half resolution (see RenderOptions::blur_half_res_poses).
+  uint64_t blurredFramesHalfRes() const { return blurred_half_res_; }
+
   const CameraModel& camera() const { return camera_; }
 
 
@@ -83,6 +95,9 @@ class Renderer {
   /// colours to block_sums_ instead.
   void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
                   float* accumulate) const;
+  /// The noiseless linear image (CV_32FC3) of these poses' average: a buffer of this renderer
+  /// (the last still frame's image, or the blur accumulator), valid until the next call.
+  const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses) const;
 
   CameraConfig config_;
   CameraModel camera_;
@@ -112,7 +127,10 @@ class Renderer {
   mutable double still_nearest_m_ = 0;
   mutable double nearest_m_ = 0;
   mutable cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
-  mutable uint64_t still_rendered_ = 0, still_reused_ = 0;
+  mutable uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
+  /// The same camera at half resolution, for blurred frames of many poses (null: not used).
+  std::unique_ptr<Renderer> half_;
+  mutable cv::Mat upscaled_;
 };
 
 }  // namespace sim

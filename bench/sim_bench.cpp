@@ -139,6 +139,7 @@ int main(int argc, char** argv) {
     today.still_reuse_px = -1;
     today.blur_block_sums = false;
     today.blur_half_res_poses = 0;
+    today.edge_samples_on_plane = false;
 
     // Render time: still frames at headings all around the start (boards in view or not), today's
     // renderer and now's alternately on the same pose, so that the machine's load hits both alike.

@@ -25,6 +25,9 @@ constexpr uint16_t kAllBins = kAzimuthBins;  // rays too close to vertical to ha
 // smaller than a block of pixels, so it is never interpolated. (Boards need no flag: each square
 // and margin strip has an id of its own, see boardColor.)
 constexpr int kMarked = 1 << 30;
+// The bits of a surface id that name the plane it lies on (0: the sky, 1: the floor, else a
+// vertical quad's or a box top's id); the bits above name the part (a board's square, a poster).
+constexpr int kSurfaceMask = 0xFFFF;
 
 using detail::Rgb;
 
@@ -166,8 +169,16 @@ class Scene {
   /// unit. bin: the azimuth bin of d in the robot frame (kAllBins: test every vertical quad).
   /// *distance (when given): the ray parameter t of the hit (+inf for the sky); with a unit d, the
   /// distance [m] to the surface.
+  /// *plane (when given): where on its surface the ray hit, the coordinates colorOn takes.
   inline void trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin, Rgb* color,
-                    int* id, double* distance = nullptr) const;
+                    int* id, double* distance = nullptr, Eigen::Vector2f* plane = nullptr) const;
+
+  /// The colour a ray traced from `o` finds on the surface `surface` (a hit's id & kSurfaceMask:
+  /// the floor, a vertical quad or a box top) at plane coordinates `at` (as trace gives them: the
+  /// floor's x, y; a quad's s, z). An edge pixel whose corners all lie on one such plane is
+  /// sampled here, at points interpolated between its corners' plane coordinates, instead of by
+  /// tracing each sample ray through the scene.
+  inline Rgb colorOn(int surface, const Eigen::Vector2f& at, const Eigen::Vector3d& o) const;
 
   /// True when no floor mark (tag, lane line) reaches into the rectangle [x0, x1] x [y0, y1]. A
   /// block of pixels on the floor maps to a convex quad of the floor plane: when the quad's
@@ -185,6 +196,8 @@ class Scene {
   Rgb boardColor(const VerticalQuad& q, double s, double z, int* cell) const;
   /// Wall colour at (s, z); *part tells the posters (1 + index) from the bare wall (0).
   Rgb wallColor(const VerticalQuad& q, double s, double z, int* part) const;
+  /// Colour of this side of a quad at (s, z); *part: the board's cell or the wall's poster (0: none).
+  inline Rgb quadColor(const VerticalQuad& q, Surface surface, double s, double z, int* part) const;
 
   WorldConfig world_;
   Rgb floor_color_;
@@ -201,6 +214,8 @@ class Scene {
   mutable std::vector<std::vector<int>> bins_;
   mutable std::vector<double> bin_min_dist2_;  // squared floor-plan distance to the nearest quad
   mutable std::vector<int> visible_tops_;
+  std::vector<int> quad_of_id_;  // surface id -> index into quads_ (-1: not a quad)
+  std::vector<int> top_of_id_;   // surface id -> index into tops_ (-1: not a box top)
 };
 
 Scene::Scene(const WorldConfig& world) : world_(world), floor_color_(rgb(world.floor_color)) {
@@ -385,6 +400,11 @@ Scene::Scene(const WorldConfig& world) : world_(world), floor_color_(rgb(world.f
   }
   bins_.assign(kAzimuthBins + 1, {});
   bin_min_dist2_.assign(kAzimuthBins + 1, 0.0);
+  if (next_id > kSurfaceMask) throw ConfigError("renderer: the world has too many surfaces");
+  quad_of_id_.assign(static_cast<size_t>(next_id), -1);
+  top_of_id_.assign(static_cast<size_t>(next_id), -1);
+  for (size_t i = 0; i < quads_.size(); ++i) quad_of_id_[static_cast<size_t>(quads_[i].id)] = static_cast<int>(i);
+  for (size_t k = 0; k < tops_.size(); ++k) top_of_id_[static_cast<size_t>(tops_[k].id)] = static_cast<int>(k);
 }
 
 namespace {
@@ -514,7 +534,7 @@ Rgb Scene::wallColor(const VerticalQuad& q, double s, double z, int* part) const
 }
 
 inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uint16_t bin,
-                         Rgb* color, int* id, double* distance) const {
+                         Rgb* color, int* id, double* distance, Eigen::Vector2f* plane) const {
   double best = std::numeric_limits<double>::infinity();
   int hit = -1;  // -1 nothing, -2 floor, -3 - k: top k, >= 0: quad
   double hit_s = 0;
@@ -557,42 +577,59 @@ inline void Scene::trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d, uin
     *id = 0;
   } else if (hit == -2) {
     bool marked = false;
-    *color = floorColor(o.x() + best * d.x(), o.y() + best * d.y(), &marked);
+    const double x = o.x() + best * d.x(), y = o.y() + best * d.y();
+    *color = floorColor(x, y, &marked);
     *id = marked ? (1 | kMarked) : 1;
+    if (plane) *plane = Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y));
   } else if (hit <= -3) {
     const HorizontalRect& r = tops_[static_cast<size_t>(-3 - hit)];
     *color = r.color;
     *id = r.id;
+    if (plane) {
+      *plane = Eigen::Vector2f(static_cast<float>(o.x() + best * d.x()), static_cast<float>(o.y() + best * d.y()));
+    }
   } else {
     const VerticalQuad& q = quads_[static_cast<size_t>(hit)];
     const bool front = d.x() * q.front.x() + d.y() * q.front.y() < 0;
     const Surface surface = front ? q.front_surface : q.back_surface;
     const double z = o.z() + best * d.z();
-    *id = q.id;
-    switch (surface) {
-      case Surface::kBoard: {
-        // Each square and margin region is a surface of its own: a block whose corners share one
-        // cannot hold an edge (the regions are convex), so it may be blended like plain surfaces.
-        int cell = 0;
-        *color = boardColor(q, hit_s, z, &cell);
-        *id += cell << 16;
-        break;
-      }
-      case Surface::kBoardBack:
-        *color = kBoardBack;
-        break;
-      case Surface::kWall: {
-        int part = 0;
-        *color = wallColor(q, hit_s, z, &part);
-        *id += part << 16;  // posters are surfaces of their own: their edges are always edges
-        break;
-      }
-      case Surface::kStand:
-      case Surface::kBox:
-        *color = q.color;
-        break;
-    }
+    if (plane) *plane = Eigen::Vector2f(static_cast<float>(hit_s), static_cast<float>(z));
+    int part = 0;
+    *color = quadColor(q, surface, hit_s, z, &part);
+    *id = q.id + (part << 16);
   }
+}
+
+inline Rgb Scene::quadColor(const VerticalQuad& q, Surface surface, double s, double z, int* part) const {
+  *part = 0;
+  switch (surface) {
+    case Surface::kBoard:
+      // Each square and margin region is a surface of its own: a block whose corners share one
+      // cannot hold an edge (the regions are convex), so it may be blended like plain surfaces.
+      return boardColor(q, s, z, part);
+    case Surface::kBoardBack:
+      return kBoardBack;
+    case Surface::kWall:
+      return wallColor(q, s, z, part);  // posters are surfaces of their own: their edges are edges
+    case Surface::kStand:
+    case Surface::kBox:
+      break;
+  }
+  return q.color;
+}
+
+inline Rgb Scene::colorOn(int surface, const Eigen::Vector2f& at, const Eigen::Vector3d& o) const {
+  if (surface == 1) {
+    bool marked = false;
+    return floorColor(at.x(), at.y(), &marked);
+  }
+  const int top = top_of_id_[static_cast<size_t>(surface)];
+  if (top >= 0) return tops_[static_cast<size_t>(top)].color;
+  const VerticalQuad& q = quads_[static_cast<size_t>(quad_of_id_[static_cast<size_t>(surface)])];
+  // The camera sees the quad's front when it stands on the side its front normal points to.
+  const bool front = (o.x() - q.p0.x()) * q.front.x() + (o.y() - q.p0.y()) * q.front.y() > 0;
+  int part = 0;
+  return quadColor(q, front ? q.front_surface : q.back_surface, at.x(), at.y(), &part);
 }
 
 // -----------------------------------------------------------------------------------------------
@@ -715,7 +752,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
   color.resize(corner_dirs_.size());
   id.resize(corner_dirs_.size());
   traced_.resize(corner_dirs_.size());
-  corner_floor_xy_.resize(corner_dirs_.size());
+  corner_plane_.resize(corner_dirs_.size());
   ++frame_;  // corners traced in this frame carry its number (no per-frame clearing)
   nearest_m_ = std::numeric_limits<double>::infinity();
 
@@ -729,13 +766,10 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
     const Eigen::Vector3f& d = corner_dirs_[i];
     const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
     double distance;  // corner rays are unit vectors: t is the distance [m]
-    scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i], &distance);
+    // Where the ray meets its surface: for smoothCorners (marked floor) and for sampling edge
+    // pixels on one plane (shadePixel).
+    scene_->trace(origin, dw, corner_bins_[i], &color[i], &id[i], &distance, &corner_plane_[i]);
     nearest_m_ = std::min(nearest_m_, distance);
-    if (id[i] == (1 | kMarked)) {  // marked floor: keep where the ray meets it (see smoothCorners)
-      const double t = -origin.z() / dw.z();
-      corner_floor_xy_[i] = Eigen::Vector2f(static_cast<float>(origin.x() + t * dw.x()),
-                                            static_cast<float>(origin.y() + t * dw.y()));
-    }
   };
 
   const float thr = static_cast<float>(options_.edge_threshold);
@@ -775,12 +809,31 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
           0.25f * (a.r + b.r + e.r + f.r));
       return;
     }
-    // An edge crosses the pixel: integrate its area with sample rays, each interpolated between
-    // the pixel's corner rays (the lens mapping is smooth within a pixel).
+    // An edge crosses the pixel: integrate its area with samples spread over it.
+    float sb = 0, sg = 0, sr = 0;
+    const int surface = id[i00] & kSurfaceMask;
+    if (options_.edge_samples_on_plane && surface != 0 && (id[i10] & kSurfaceMask) == surface &&
+        (id[i01] & kSurfaceMask) == surface && (id[i11] & kSurfaceMask) == surface) {
+      // All four corners on one plane (a board's squares, the floor's marks, a wall's posters):
+      // the samples' points on it, interpolated between the corners' (a pixel's footprint is a
+      // plane quad, its perspective within the pixel negligible), are coloured where they lie.
+      const Eigen::Vector2f &p00 = corner_plane_[i00], &p10 = corner_plane_[i10];
+      const Eigen::Vector2f &p01 = corner_plane_[i01], &p11 = corner_plane_[i11];
+      for (const Eigen::Vector2f& t : sample_offsets_) {
+        const Eigen::Vector2f l = p00 + (p01 - p00) * t.y(), r = p10 + (p11 - p10) * t.y();
+        const Rgb col = scene_->colorOn(surface, l + (r - l) * t.x(), origin);
+        sb += col.b;
+        sg += col.g;
+        sr += col.r;
+      }
+      put(out, sb * inv_samples, sg * inv_samples, sr * inv_samples);
+      return;
+    }
+    // Else sample rays, each interpolated between the pixel's corner rays (the lens mapping is
+    // smooth within a pixel), traced through the scene.
     const Eigen::Vector3f &d00 = corner_dirs_[i00], &d10 = corner_dirs_[i10];
     const Eigen::Vector3f &d01 = corner_dirs_[i01], &d11 = corner_dirs_[i11];
     const uint16_t bin = corner_bins_[i00];
-    float sb = 0, sg = 0, sr = 0;
     for (const Eigen::Vector2f& t : sample_offsets_) {
       const Eigen::Vector3f l = d00 + (d01 - d00) * t.y(), r = d10 + (d11 - d10) * t.y();
       const Eigen::Vector3f d = l + (r - l) * t.x();
@@ -813,8 +866,8 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
     if (block_id & kMarked) {
       // Only the floor may still be blended: when no mark reaches into the block's footprint.
       if (block_id != (1 | kMarked)) return false;
-      const Eigen::Vector2f &pa = corner_floor_xy_[a], &pb = corner_floor_xy_[b], &pe = corner_floor_xy_[e],
-                            &pf = corner_floor_xy_[f];
+      const Eigen::Vector2f &pa = corner_plane_[a], &pb = corner_plane_[b], &pe = corner_plane_[e],
+                            &pf = corner_plane_[f];
       if (!scene_->floorAreaHoldsNoMark(std::min(std::min(pa.x(), pb.x()), std::min(pe.x(), pf.x())),
                                         std::max(std::max(pa.x(), pb.x()), std::max(pe.x(), pf.x())),
                                         std::min(std::min(pa.y(), pb.y()), std::min(pe.y(), pf.y())),

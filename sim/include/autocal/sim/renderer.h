@@ -50,6 +50,11 @@ struct RenderOptions {
   /// one pixel more than the full-resolution poses would give. 0: every pose at full resolution
   /// (the code before; for the benchmark's side by side). Still frames never change.
   int blur_half_res_poses = 4;
+  /// An edge pixel whose four corners lie on one plane (a board, the floor, a wall: the edges of
+  /// squares, tags, lines and posters) colours its samples at their points on that plane,
+  /// interpolated between its corners', instead of tracing a ray through the scene for each.
+  /// False: every sample traced (the code before; for the benchmark's side by side).
+  bool edge_samples_on_plane = true;
 };
 
 class Scene;
@@ -112,7 +117,7 @@ class Renderer {
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
   mutable std::vector<detail::Rgb> corner_color_;
   mutable std::vector<int> corner_id_;
-  mutable std::vector<Eigen::Vector2f> corner_floor_xy_;  // where a marked-floor corner's ray lands
+  mutable std::vector<Eigen::Vector2f> corner_plane_;  // where a corner's ray meets its surface
   mutable std::vector<detail::Rgb>
       block_sums_;                             // blurred frame: per 4 x 4 block, its corners' sums
   mutable std::vector<uint8_t> block_summed_;  // ... and whether any pose blended it

@@ -61,6 +61,8 @@ if(CATKIN_ENABLE_TESTING)
     DEPENDENCIES test_run_kill run_report_node camera_calibration_node sim_node)
   add_rostest(test/report/run_kill.test ARGS stage:=wheels
     DEPENDENCIES test_run_kill run_report_node wheel_calibration_node sim_node)
+  add_rostest(test/report/run_kill.test ARGS stage:=odometry
+    DEPENDENCIES test_run_kill run_report_node odometry_calibration_node sim_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

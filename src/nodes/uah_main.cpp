@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -116,10 +117,44 @@ Args parseArgs(int argc, char** argv) {
   return a;
 }
 
-/// The header stamp, or the bag's record time when the header has none.
-double stampOf(const rosbag::MessageInstance& m, const ros::Time& header_stamp) {
-  return header_stamp.isZero() ? m.getTime().toSec() : header_stamp.toSec();
-}
+/// The messages' times: each message's header stamp; a stamp of 0 is resolved once the whole bag
+/// is read (resolve()). A publisher that never stamps leaves 0: its messages take the bag's record
+/// time. But a publisher that stamps its other messages sent this one at time 0 of its clock (in
+/// the simulator, the clock held at 0 until a controller appears): its record time is when the
+/// recorder got it, on a clock already running, and taken as the stamp it put the node's zero
+/// commands of time 0 after its first pivot's first command, cutting that motion short
+/// (uah_bag.test: "pivot_left_stopped at 0.005 s: the recording has no encoder readings over the
+/// motion"). Such a stamp stays 0.
+class MessageTimes {
+ public:
+  /// `header_stamp` [s], and notes it; `slot` is where the caller keeps it (kept until resolve()).
+  double note(const rosbag::MessageInstance& m, const ros::Time& header_stamp,
+              std::function<double&()> slot) {
+    const std::string source = m.getTopic() + " from " + m.getCallerId();
+    if (!header_stamp.isZero()) {
+      stamping_.insert(source);
+    } else {
+      zero_.push_back({source, m.getTime().toSec(), std::move(slot)});
+    }
+    return header_stamp.toSec();
+  }
+  /// Gives the unstamped messages (those of a publisher that never stamps) their record time.
+  void resolve() {
+    for (ZeroStamp& z : zero_) {
+      if (!stamping_.count(z.source)) z.slot() = z.record_s;
+    }
+    zero_.clear();
+  }
+
+ private:
+  struct ZeroStamp {
+    std::string source;
+    double record_s;
+    std::function<double&()> slot;
+  };
+  std::set<std::string> stamping_;  // topic and publisher of each message with a stamp
+  std::vector<ZeroStamp> zero_;
+};
 
 struct BagContents {
   UahRecording recording;
@@ -173,6 +208,11 @@ BagContents readBag(const std::string& path, const std::string& veh) {
     return InputError(path + ": " + m.getTopic() + " carries " + m.getDataType() + ", not " +
                       expected);
   };
+  MessageTimes times;
+  // Where the last message pushed onto `v` keeps its stamp.
+  auto lastOf = [](auto& v) {
+    return [&v, i = v.size() - 1]() -> double& { return v[i].stamp_s; };
+  };
   try {
     for (const rosbag::MessageInstance& m : view) {
       const std::string& topic = m.getTopic();
@@ -181,22 +221,27 @@ BagContents readBag(const std::string& path, const std::string& veh) {
         if (!msg) throw wrongType(m, "WheelEncoderStamped");
         const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
         out.ticks_per_revolution = r.ticks_per_revolution;
-        wheel[topic == left ? 0 : 1].push_back({stampOf(m, msg->header.stamp), r.ticks});
+        std::vector<Tick>& w = wheel[topic == left ? 0 : 1];
+        w.push_back({0, r.ticks});
+        w.back().stamp_s = times.note(m, msg->header.stamp, lastOf(w));
       } else if (topic == range) {
         const auto msg = m.instantiate<sensor_msgs::Range>();
         if (!msg) throw wrongType(m, "sensor_msgs/Range");
         const RangeReading r = ros_layer::fromRangeMsg(*msg);
-        rec.ranges.push_back({stampOf(m, msg->header.stamp), r.range_m});
+        rec.ranges.push_back({0, r.range_m});
+        rec.ranges.back().stamp_s = times.note(m, msg->header.stamp, lastOf(rec.ranges));
       } else if (topic == cmd) {
         const auto msg = m.instantiate<dtmsg::WheelsCmdStamped>();
         if (!msg) throw wrongType(m, "WheelsCmdStamped");
         const WheelDuties d = ros_layer::fromWheelsCmd(*msg);
-        rec.commands.push_back({stampOf(m, msg->header.stamp), d.left, d.right});
+        rec.commands.push_back({0, d.left, d.right});
+        rec.commands.back().stamp_s = times.note(m, msg->header.stamp, lastOf(rec.commands));
       } else if (topic == status) {
         const auto msg = m.instantiate<autocal::CalibrationStatus>();
         if (!msg) throw wrongType(m, "autocal/CalibrationStatus");
-        UahRecording::Status s;
-        s.stamp_s = stampOf(m, msg->header.stamp);
+        rec.statuses.emplace_back();
+        UahRecording::Status& s = rec.statuses.back();
+        s.stamp_s = times.note(m, msg->header.stamp, lastOf(rec.statuses));
         s.phase = msg->phase;
         s.state = msg->state;
         s.failure_reason = msg->failure_reason;
@@ -204,7 +249,6 @@ BagContents readBag(const std::string& path, const std::string& veh) {
           if (msg->figure_names[i] == "round") s.round = msg->figure_values[i];
           if (msg->figure_names[i] == "straight_run") s.straight_run = msg->figure_values[i];
         }
-        rec.statuses.push_back(s);
       } else if (topic == length) {
         const auto msg = m.instantiate<std_msgs::Float64>();
         if (!msg) throw wrongType(m, "std_msgs/Float64");
@@ -215,6 +259,7 @@ BagContents readBag(const std::string& path, const std::string& veh) {
     throw InputError(path +
                      ": the bag cannot be read to its end (truncated or corrupt?): " + e.what());
   }
+  times.resolve();
   // The two wheels' readings in the order of their stamps (the bag holds them in the order the
   // recorder received them, which a loaded machine shuffles): as the node's EncoderInput, every
   // reading, once both wheels reported, is a reading of both (the latest of each); readings of

@@ -92,6 +92,28 @@ void copyBag(const std::string& in, const std::string& out, const std::string& d
   }
 }
 
+/// A copy of `in` with one more zero command on `cmd_topic`, stamped 0 (sent at time 0 of the
+/// clock) and recorded `late_s` after the first moving command's stamp: what the recorder makes
+/// of the zero commands a node sends while the simulator's clock is still at 0, when its own clock
+/// runs ahead (uah_bag.test once failed "pivot_left_stopped at 0.005 s: the recording has no
+/// encoder readings over the motion").
+void copyBagWithLateZeroCommand(const std::string& in, const std::string& out,
+                                const std::string& cmd_topic, double late_s) {
+  rosbag::Bag src(in, rosbag::bagmode::Read), dst(out, rosbag::bagmode::Write);
+  bool inserted = false;
+  for (const rosbag::MessageInstance& m : rosbag::View(src)) {
+    dst.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+    if (inserted || m.getTopic() != cmd_topic) continue;
+    auto c = m.instantiate<autocal::dtmsg::WheelsCmdStamped>();
+    if (c->vel_left == 0 && c->vel_right == 0) continue;
+    const ros::Time recorded = c->header.stamp + ros::Duration(late_s);
+    c->header.stamp = ros::Time(0);
+    c->vel_left = c->vel_right = 0;
+    dst.write(m.getTopic(), recorded, *c, m.getConnectionHeader());
+    inserted = true;
+  }
+}
+
 double relative(double a, double b) { return a / b - 1; }
 
 int liveAcceptedRuns(const std::string& live_path) {
@@ -197,6 +219,16 @@ TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   EXPECT_NEAR(YAML::Load(nominal.out)["right_m_per_pulse"].as<double>() / cR, 3.0 / mean_length,
               1e-3);
   g_recorded = Recorded{bag, veh, live_path, b};
+
+  // A zero command of time 0 (stamp 0) recorded after the first motion began is still the
+  // command before it: the same result (a stamp of 0 from a publisher that stamps is time 0, not
+  // "no stamp, take the record time").
+  const std::string late_zero = root + "/late_zero.bag";
+  copyBagWithLateZeroCommand(bag, late_zero, "/" + veh + "/wheels_driver_node/wheels_cmd", 0.005);
+  const Command z = runUah("--bag " + late_zero + " --veh " + veh);
+  ASSERT_EQ(z.code, 0) << z.err;
+  EXPECT_EQ(YAML::Load(z.out)["Ed"].as<double>(), Ed);
+  EXPECT_EQ(YAML::Load(z.out)["right_m_per_pulse"].as<double>(), cR);
 }
 
 struct BadCase {

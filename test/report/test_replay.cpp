@@ -146,18 +146,33 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
             std::string::npos)
       << cut_summary.required<std::string>("failure");
 
-  // Not a bag: rosbag play refuses it and the replay ends at once, nothing written.
+  // Not a bag: rosbag play refuses it ("Error reading version line") and exits non-zero; the
+  // replay ends at once, failed for that reason (the summary and the script's last line say so),
+  // and no stage's file is written.
   const fs::path text = root / "not_a_bag.bag";
   std::ofstream(text) << "this is not a bag\n";
   const fs::path bad_root = root / "bad";
   fs::remove_all(bad_root);
-  EXPECT_EQ(
+  const int bad_status =
       replay("bag:=" + text.string() + " veh:=" + veh + " calibration_root:=" + bad_root.string(),
-             root / "bad.log"),
-      1);
+             root / "bad.log");
+  EXPECT_NE(bad_status, 0);
+  EXPECT_EQ(bad_status, 1);
   const Files bad = readFiles(bad_root, veh);
   EXPECT_TRUE(bad.camera_matrix.empty());
   EXPECT_FALSE(bad.has_kinematics);
+  EXPECT_FALSE(fs::exists(bad_root / "camera_intrinsic"));
+  EXPECT_FALSE(fs::exists(bad_root / "kinematics"));
+  const std::string cause = "the recording could not be played: rosbag play exited with status";
+  const fs::path bad_summary = bad_root / "report" / veh / "summary.yaml";
+  ASSERT_TRUE(fs::exists(bad_summary)) << readText(root / "bad.log");
+  YamlMap bad_report = YamlMap::loadFile(bad_summary.string());
+  EXPECT_EQ(bad_report.required<std::string>("result"), "failed");
+  const std::string failure = bad_report.required<std::string>("failure");
+  EXPECT_NE(failure.find(cause), std::string::npos) << failure;
+  EXPECT_EQ(failure.find("interrupted"), std::string::npos) << failure;
+  const std::string log = readText(root / "bad.log");
+  EXPECT_NE(log.find("replay: FAILED: " + cause), std::string::npos) << log;
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // A calibration stage's node killed with SIGKILL mid-run, judged from outside (run_kill.test): the
 // simulator's truth says the robot stops within the wheel driver's watchdog, run_report_node
 // reports the run FAILED naming the dead node (status, summary.yaml and /diagnostics: OK before,
-// ERROR after), and the calibration files of an earlier run are byte for byte intact.
+// ERROR after), and the calibration files of an earlier run (camera, kinematics, odometry) are
+// byte for byte intact.
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
@@ -16,6 +17,7 @@
 
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/yaml_reader.h"
+#include "autocal/odometry/calibration_file.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
@@ -87,8 +89,12 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   const std::string kinematics_text = autocal::wheels::kinematicsYaml(earlier, "2026-01-01");
   fs::create_directories(fs::path(camera_file).parent_path());
   fs::create_directories(fs::path(kinematics_file).parent_path());
+  const std::string odometry_file = autocal::odometry::odometryCalibrationPath(root.string(), veh);
+  const std::string odometry_text = "# an earlier odometry calibration\nmethod: uah\n";
+  fs::create_directories(fs::path(odometry_file).parent_path());
   autocal::writeFileAtomically(camera_file, camera_text);
   autocal::writeFileAtomically(kinematics_file, kinematics_text);
+  autocal::writeFileAtomically(odometry_file, odometry_text);
 
   // While the stage runs, its diagnostics are OK.
   ASSERT_TRUE(spinUntil([&] { return stage_diag.has_value(); }, 30.0)) << "no diagnostics";
@@ -140,8 +146,10 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   // The earlier files, byte for byte; no temporary file left beside them.
   EXPECT_EQ(autocal::readFile(camera_file), camera_text);
   EXPECT_EQ(autocal::readFile(kinematics_file), kinematics_text);
+  EXPECT_EQ(autocal::readFile(odometry_file), odometry_text);
   for (const fs::path dir :
-       {fs::path(camera_file).parent_path(), fs::path(kinematics_file).parent_path()}) {
+       {fs::path(camera_file).parent_path(), fs::path(kinematics_file).parent_path(),
+        fs::path(odometry_file).parent_path()}) {
     for (const auto& entry : fs::directory_iterator(dir)) {
       const std::string name = entry.path().filename().string();
       EXPECT_TRUE(name == veh + ".yaml") << "left in " << dir << ": " << name;

@@ -85,7 +85,8 @@ class RunRecorder {
   /// The node of `stage` went away while the stage was running (no DONE or FAILED): the stage
   /// fails with `why`.
   void markStageDead(const std::string& stage, const std::string& why);
-  /// The run was stopped from outside before it ended.
+  /// The run was stopped from outside before it ended (Ctrl-C; a replay whose recording could
+  /// not be played).
   void markInterrupted(const std::string& why);
   /// A resumed run: a stage this run has no status of (still pending) takes the result the last
   /// run's report kept for it, so that a run interrupted before its stages spoke does not lose it.

@@ -259,6 +259,11 @@ void OdometryCalibrationNode::run() {
     ros::WallDuration(0.01).sleep();
   }
   wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
+  // In a calibration run the simulator, in lockstep with the stage before, holds its clock until
+  // a command comes: the first one must not be lost (WheelsCommander::waitForSubscriber).
+  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
+    ROS_WARN("odometry_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
+  }
   ros::Rate rate(options_.control_rate_hz);
   const ros::WallTime wait_start = ros::WallTime::now();
   while (ros_layer::ok() && !runDone()) {
@@ -272,7 +277,8 @@ void OdometryCalibrationNode::run() {
         throw InputError("no encoder readings on left/right_wheel_encoder_node/tick");
       }
       wheels_.command(0, 0);
-      rate.sleep();
+      // Wall time until the first reading: the clock may be held until a command arrives.
+      ros::WallDuration(1.0 / options_.control_rate_hz).sleep();
       continue;
     }
     if (umbmark_run_) {

@@ -90,6 +90,14 @@ void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus 
   const autocal::CalibrationStatus& msg = *event.getMessage();
   const std::string stage = msg.phase.substr(0, msg.phase.find('/'));
   if (event.getPublisherName() == ros::this_node::getName()) return;  // our own
+  if (msg.phase == "recording/play" && msg.state == autocal::CalibrationStatus::STATE_FAILED) {
+    // A replay whose player could not play the recording (replay.launch's replay_player: rosbag
+    // play exited non-zero): no stage will speak, the run ends with the player's reason.
+    const std::string why = msg.failure_reason.empty() ? msg.text : msg.failure_reason;
+    ROS_ERROR("run_report_node: %s", why.c_str());
+    recorder_->markInterrupted(why);
+    return;
+  }
   StatusUpdate u;
   u.stamp_s = msg.header.stamp.toSec();
   u.phase = msg.phase;

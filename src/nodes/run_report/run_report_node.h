@@ -8,7 +8,9 @@
 // A stage whose node dies (SIGKILL, a crash: no FAILED of its own) is noticed by pinging the node
 // that published the stage's last status; the report node then publishes FAILED for the stage in
 // its name (phase "<stage>/died"), so that a later stage waiting for it gives up, and stops the
-// wheels (the wheel driver's watchdog stops them too). It never reads a simulator's truth.
+// wheels (the wheel driver's watchdog stops them too). A FAILED of phase "recording/play" (a
+// replay's player could not play the recording) ends the run with its reason. It never reads a
+// simulator's truth.
 //
 // Subscribes (relative to the robot's namespace): calibration/status,
 // left_wheel_encoder_node/tick, right_wheel_encoder_node/tick. Publishes calibration/status

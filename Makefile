@@ -40,6 +40,10 @@ deps:
 	fi
 
 build: deps
+	@# catkin caches the devel space's environment at configure time (catkin_generated/setup_cached.sh,
+	@# which the tests run under) and only lists folders that exist then: without this one, a fresh
+	@# clone's tests would run Python nodes with no path to this package's messages.
+	mkdir -p $(CURDIR)/devel/lib/python3/dist-packages
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
 	  -DCATKIN_ENABLE_TESTING=ON -DCATKIN_DEVEL_PREFIX=$(CURDIR)/devel
 	@# rosrun ignores executables under <package>/build/, so the devel space lives in ./devel;

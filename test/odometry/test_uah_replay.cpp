@@ -151,6 +151,58 @@ std::string inputError(const odometry::UahRecording& rec, const odometry::UahRep
   return "";
 }
 
+// A recording of the whole run (camera and wheel stages, then UAH) holds the earlier stages'
+// motions on the same wheels_cmd, under their own status phases: they are left out, and the
+// result is the UAH run's alone.
+TEST(UahReplay, EarlierStagesMotionsInTheRecordingAreLeftOut) {
+  const Recorded& run = defaultRun();
+  const odometry::UahReplayOptions o = replayOptions(run);
+  const odometry::UahReplayResult alone = odometry::replayUah(run.recording, o);
+  odometry::UahRecording rec = run.recording;
+  const double shift_s = 20.0;  // the earlier stages take the first 20 s
+  for (auto& e : rec.encoders) e.stamp_s += shift_s;
+  for (auto& r : rec.ranges) r.stamp_s += shift_s;
+  for (auto& c : rec.commands) c.stamp_s += shift_s;
+  for (auto& s : rec.statuses) s.stamp_s += shift_s;
+  for (auto& l : rec.lengths) l.stamp_s += shift_s;
+  // A camera-stage pulse and a wheel-stage drive, with their statuses (their encoder readings do
+  // not concern the UAH run).
+  using Rec = odometry::UahRecording;
+  std::vector<Rec::Command> earlier = {
+      {1.0, 0.0, 0.3}, {1.1, 0.0, 0.0}, {5.0, 0.3, 0.3}, {9.0, 0.0, 0.0}};
+  rec.commands.insert(rec.commands.begin(), earlier.begin(), earlier.end());
+  std::vector<Rec::Status> phases(2);
+  phases[0].stamp_s = 1.0;
+  phases[0].phase = "camera/sweep";
+  phases[1].stamp_s = 5.0;
+  phases[1].phase = "wheels/drive";
+  rec.statuses.insert(rec.statuses.begin(), phases.begin(), phases.end());
+  const odometry::UahReplayResult whole = odometry::replayUah(rec, o);
+  EXPECT_EQ(whole.earlier_stage_motions, 2);
+  EXPECT_EQ(whole.motions.size(), alone.motions.size());
+  // The same result up to the samples that the shifted stamps' rounding moves across a motion's
+  // boundary (the shift alone changes Ed by about 2e-4).
+  EXPECT_NEAR(whole.result.ed.Ed, alone.result.ed.Ed, 1e-3);
+  EXPECT_NEAR(whole.result.calibrated.wheelbase_m, alone.result.calibrated.wheelbase_m, 1e-4);
+  EXPECT_NEAR(whole.result.calibrated.right_m_per_pulse / alone.result.calibrated.right_m_per_pulse,
+              1.0, 1e-3);
+  {
+    odometry::UahRecording shifted = run.recording;  // the shift alone, for the comment above
+    for (auto& e : shifted.encoders) e.stamp_s += shift_s;
+    for (auto& r : shifted.ranges) r.stamp_s += shift_s;
+    for (auto& c : shifted.commands) c.stamp_s += shift_s;
+    for (auto& st : shifted.statuses) st.stamp_s += shift_s;
+    for (auto& l : shifted.lengths) l.stamp_s += shift_s;
+    const odometry::UahReplayResult moved = odometry::replayUah(shifted, o);
+    EXPECT_NEAR(whole.result.ed.Ed, moved.result.ed.Ed, 1e-12);
+    EXPECT_NEAR(whole.result.calibrated.wheelbase_m, moved.result.calibrated.wheelbase_m, 1e-12);
+  }
+  // Without any odometry experiment recorded, nothing is left: refused.
+  odometry::UahRecording none = rec;
+  none.statuses.resize(2);
+  EXPECT_THROW(odometry::replayUah(none, o), autocal::InputError);
+}
+
 TEST(UahReplay, RecordingsThatCannotCarryTheResultAreRefused) {
   const Recorded& run = defaultRun();
   const odometry::UahReplayOptions o = replayOptions(run);

@@ -79,6 +79,9 @@ struct UahReplayResult {
   /// The recorded run's own end: "done", "failed: <reason>" or "unfinished".
   std::string recorded_outcome;
   double recording_s = 0;  ///< span of the recording
+  /// Motions that ended before the first recorded odometry experiment: the earlier stages' (camera,
+  /// wheels) in a recording of the whole run, left out.
+  int earlier_stage_motions = 0;
   UahResult result;
 };
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include "autocal/errors.h"
@@ -174,6 +175,20 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     return std::min(stop_s + kMaxSettleS, enc.back().stamp_s);
   };
 
+  // The odometry stage's first experiment. A recording of the whole run (calibrate.launch
+  // odometry:=true) holds the camera and wheel stages' motions before it, on the same wheels_cmd:
+  // motions that ended before it are theirs, not the UAH run's.
+  double first_experiment_s = std::numeric_limits<double>::infinity();
+  for (const auto& s : rec.statuses) {
+    if (experimentFromPhase(s.phase) != UahExperiment::kWait) {
+      first_experiment_s = std::min(first_experiment_s, s.stamp_s);
+    }
+  }
+  if (!std::isfinite(first_experiment_s)) {
+    throw InputError("no odometry/<experiment> status was recorded: is this a recording of "
+                     "odometry_calibration_node's UAH run?");
+  }
+
   // Each motion's experiment: the recorded status phase most seen while it moved (the node
   // publishes its status on every change of experiment, right after the command).
   int straight_index = 0;
@@ -201,6 +216,10 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
         const UahExperiment e = experimentFromPhase(s.phase);
         if (e != UahExperiment::kWait) votes = {{e, 1}};
       }
+    }
+    if (votes.empty() && m.stop_s < first_experiment_s) {
+      ++out.earlier_stage_motions;
+      continue;
     }
     if (votes.empty()) {
       throw InputError("the robot moved at " + at(m.start_s) +

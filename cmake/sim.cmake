@@ -36,6 +36,7 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/sim/sim_drive.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_bad_config.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_viz.test DEPENDENCIES test_sim_node sim_node)
+  add_rostest(test/sim/sim_fleet_frames.test DEPENDENCIES test_sim_node sim_node)
 endif()
 
 # make bench: render time and real-time factor (ROS-free).

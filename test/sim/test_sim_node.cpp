@@ -21,12 +21,16 @@
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "autocal/exit_codes.h"
+#include "autocal/io/format.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/msgs.h"
 #include "support/ros_wait.h"
@@ -480,6 +484,79 @@ std::string readAll(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
+// A fleet's frames due at once are rendered on threads, each robot's on its own: every robot's
+// image must be what its own renderer (its config, its seed) makes of its pose. The robots stand
+// still (nobody commands them) at the world's start, so the only unknown is how many frames the
+// node rendered before the one compared (each frame draws its noise offset from the robot's
+// camera noise source): the candidates are searched, and exactly one must match.
+TEST(SimNode, FleetFramesAreEachRobotsOwnRender) {
+  const std::vector<std::string> vehicles = autocal::splitCommaList(testParam<std::string>("vehicles"));
+  const std::vector<std::string> configs =
+      autocal::splitCommaList(testParam<std::string>("robot_configs"));
+  const autocal::sim::WorldConfig world =
+      autocal::sim::loadWorldConfig(testParam<std::string>("world_config"));
+  const int seed = testParam<int>("seed");
+  ASSERT_EQ(vehicles.size(), configs.size());
+  const size_t n = vehicles.size();
+  const int kFrame = 12;  // the frame compared: by then every robot's frames come at once
+  std::vector<cv::Mat> frame(n);
+  std::vector<int> received(n, 0);
+  ros::NodeHandle nh;
+  std::vector<ros::Subscriber> subs;
+  std::vector<ros::Publisher> cmd_pubs;
+  for (size_t i = 0; i < n; ++i) {
+    subs.push_back(nh.subscribe<sensor_msgs::Image>(
+        "/" + vehicles[i] + "/camera_node/image/raw", 100,
+        [&, i](const sensor_msgs::Image::ConstPtr& m) {
+          if (++received[i] != kFrame) return;
+          frame[i] = cv::Mat(static_cast<int>(m->height), static_cast<int>(m->width), CV_8UC3,
+                             const_cast<uint8_t*>(m->data.data()), m->step)
+                         .clone();
+        }));
+  }
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        for (const auto& s : subs) {
+          if (s.getNumPublishers() == 0) return false;
+        }
+        return true;
+      },
+      60.0));
+  // The simulator holds time at 0 until every robot's wheels_cmd has a publisher: these (never
+  // publishing) start it once every image topic is subscribed.
+  for (const std::string& v : vehicles)
+    cmd_pubs.push_back(nh.advertise<WheelsCmdStamped>("/" + v + "/wheels_driver_node/wheels_cmd", 1));
+  ASSERT_TRUE(spinUntil(
+      [&] { return std::all_of(frame.begin(), frame.end(), [](const cv::Mat& f) { return !f.empty(); }); },
+      60.0));
+  for (size_t i = 0; i < n; ++i) {
+    const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(configs[i]);
+    // As the node builds robot i (sim_robot.cpp): seed + i for the renderer's noise table, and
+    // its camera noise source seeded (seed + i) * 2 + 1.
+    autocal::sim::RenderOptions o;
+    o.supersampling = robot.camera.supersampling;
+    o.noise_sigma = robot.camera.noise_sigma;
+    o.noise_seed = static_cast<uint64_t>(seed + static_cast<int>(i));
+    autocal::sim::Renderer renderer(robot.camera, world, o);
+    std::mt19937_64 rng(static_cast<uint64_t>(seed + static_cast<int>(i)) * 2 + 1);
+    ASSERT_EQ(frame[i].size(), cv::Size(robot.camera.truth.width, robot.camera.truth.height));
+    int matches = 0;
+    double nearest_other = 1e9;
+    for (int k = 0; k < 400; ++k) {
+      const cv::Mat candidate = renderer.render({world.robot_start}, rng);
+      const double diff = cv::norm(candidate, frame[i], cv::NORM_L1) / static_cast<double>(candidate.total() * 3);
+      if (diff == 0) {
+        ++matches;
+      } else {
+        nearest_other = std::min(nearest_other, diff);
+      }
+    }
+    EXPECT_EQ(matches, 1) << vehicles[i] << ": its frame " << kFrame
+                          << " is not exactly one of its own renderer's first 400";
+    EXPECT_GT(nearest_other, 1.0) << vehicles[i];  // other frames differ by their noise
+  }
+}
+
 TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
   const std::string good_robot = readAll(robotConfigPath());
   ASSERT_FALSE(good_robot.empty());
@@ -505,7 +582,8 @@ TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
   }
   // A parameter of the wrong type or out of range names the key.
   for (const std::string& bad :
-       {std::string(" _seed:=-1"), std::string(" _physics_rate_hz:=abc")}) {
+       {std::string(" _seed:=-1"), std::string(" _physics_rate_hz:=abc"),
+        std::string(" _render_threads:=-1")}) {
     std::string out;
     EXPECT_EQ(runNode(common + required + bad, &out), bad_config) << bad << ": " << out;
     const std::string key = bad.substr(2, bad.find(":=") - 2);

@@ -62,6 +62,10 @@ struct SimNodeOptions {
   /// A fleet's robot configs, one per vehicle (empty: ~robot_config for all).
   std::vector<std::string> robot_configs;
   double area_spacing_m = 6.0;
+  /// Threads that render a fleet's frames due at the same instant, each robot's on one (OpenCV's
+  /// parallel_for_, cv::setNumThreads; every robot's renderer and noise are its own, so the images
+  /// are those of one thread). 0: OpenCV's default (one per core); 1: all on the node's thread.
+  int render_threads = 0;
   /// Throws ConfigError naming the bad "~key".
   void validate() const;
 };

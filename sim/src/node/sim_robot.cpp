@@ -106,7 +106,7 @@ void SimRobot::step() {
   }
 }
 
-void SimRobot::publishDue() {
+bool SimRobot::publishDue() {
   const double t = sim_->time_s(), dt = sim_->timestep_s();
   if (encoders_.due(t, dt)) publishEncoders();
   if (range_.due(t, dt)) publishRange();
@@ -114,7 +114,7 @@ void SimRobot::publishDue() {
     publishGroundTruth();
     publishTruePath();
   }
-  if (renderer_ && camera_.due(t, dt)) publishCamera(t);
+  return renderer_ && camera_.due(t, dt) && beginFrame(t);
 }
 
 void SimRobot::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
@@ -161,39 +161,39 @@ void SimRobot::publishRange() {
   range_pub_.publish(msg);
 }
 
-void SimRobot::publishCamera(double capture_s) {
-  const bool want_compressed = compressed_pub_.getNumSubscribers() > 0;
-  const bool want_raw = image_pub_.getNumSubscribers() > 0;
-  const double exposure = robot_.camera.exposure_s;
-  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * exposure);  // mid-exposure
+bool SimRobot::beginFrame(double capture_s) {
+  frame_compressed_ = compressed_pub_.getNumSubscribers() > 0;
+  frame_raw_ = image_pub_.getNumSubscribers() > 0;
+  frame_capture_s_ = capture_s;
+  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * robot_.camera.exposure_s);  // mid-exposure
   sensor_msgs::CameraInfo info = ros_layer::toCameraInfo(robot_.camera.nominal);
   info.header.stamp = t;
   info.header.frame_id = camera_frame_;
   camera_info_pub_.publish(info);
-  if (!want_compressed && !want_raw) return;  // nobody looks: skip the rendering
+  frame_jpeg_.header = frame_image_.header = info.header;
+  return frame_compressed_ || frame_raw_;  // nobody looks: skip the rendering
+}
 
-  const cv::Mat image =
-      renderer_->render(sim_->exposurePoses(capture_s, options_.max_blur_samples), camera_rng_);
+void SimRobot::renderFrame() {
+  const cv::Mat image = renderer_->render(
+      sim_->exposurePoses(frame_capture_s_, options_.max_blur_samples), camera_rng_);
+  if (frame_compressed_) {
+    frame_jpeg_.format = "jpeg";
+    cv::imencode(".jpg", image, frame_jpeg_.data,
+                 {cv::IMWRITE_JPEG_QUALITY, robot_.camera.jpeg_quality});
+  }
+  if (frame_raw_) {
+    frame_image_.height = static_cast<uint32_t>(image.rows);
+    frame_image_.width = static_cast<uint32_t>(image.cols);
+    frame_image_.encoding = "bgr8";
+    frame_image_.step = static_cast<uint32_t>(image.step);
+    frame_image_.data.assign(image.datastart, image.dataend);
+  }
+}
 
-  if (want_compressed) {
-    sensor_msgs::CompressedImage msg;
-    msg.header.stamp = t;
-    msg.header.frame_id = camera_frame_;
-    msg.format = "jpeg";
-    cv::imencode(".jpg", image, msg.data, {cv::IMWRITE_JPEG_QUALITY, robot_.camera.jpeg_quality});
-    compressed_pub_.publish(msg);
-  }
-  if (want_raw) {
-    sensor_msgs::Image msg;
-    msg.header.stamp = t;
-    msg.header.frame_id = camera_frame_;
-    msg.height = static_cast<uint32_t>(image.rows);
-    msg.width = static_cast<uint32_t>(image.cols);
-    msg.encoding = "bgr8";
-    msg.step = static_cast<uint32_t>(image.step);
-    msg.data.assign(image.datastart, image.dataend);
-    image_pub_.publish(msg);
-  }
+void SimRobot::publishFrame() {
+  if (frame_compressed_) compressed_pub_.publish(frame_jpeg_);
+  if (frame_raw_) image_pub_.publish(frame_image_);
 }
 
 void SimRobot::publishGroundTruth() {

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <nav_msgs/Path.h>
+#include <sensor_msgs/CompressedImage.h>
+#include <sensor_msgs/Image.h>
 #include <ros/ros.h>
 
 #include <memory>
@@ -47,8 +49,16 @@ class SimRobot {
 
   /// One physics step; the wheels stop when no wheels_cmd came for wheels_cmd_timeout_s.
   void step();
-  /// Publishes what is due after the step (encoders, range, camera, truth).
-  void publishDue();
+  /// Publishes what is due after the step (encoders, range, truth) and, when a camera frame is
+  /// due, its camera_info; true when the frame is to be rendered (somebody subscribes to an image
+  /// topic): then renderFrame() and publishFrame() follow.
+  bool publishDue();
+  /// Renders (and JPEG-encodes) the due frame. Touches only this robot's renderer, noise source
+  /// and pending messages, and reads its simulation: the robots of a fleet render theirs at once,
+  /// each on a thread of its own, while nothing steps.
+  void renderFrame();
+  /// Publishes the frame renderFrame() made.
+  void publishFrame();
   /// Latched markers of its area and robot; static TFs (the area, the odom frame).
   void publishVizStatic();
   void stop() { sim_->setDuty(0.0, 0.0); }
@@ -69,7 +79,8 @@ class SimRobot {
   void onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
   void publishEncoders();
   void publishRange();
-  void publishCamera(double capture_s);
+  /// Publishes camera_info for a frame captured at capture_s; true when it is to be rendered.
+  bool beginFrame(double capture_s);
   void publishGroundTruth();
   void publishTruePath();
 
@@ -91,6 +102,11 @@ class SimRobot {
       camera_info_pub_, ground_truth_pub_, world_markers_pub_, true_path_pub_;
   nav_msgs::Path true_path_;
   ros::WallTime last_path_;
+  /// The frame due: its capture time, which topics want it, and its messages once rendered.
+  double frame_capture_s_ = 0;
+  bool frame_compressed_ = false, frame_raw_ = false;
+  sensor_msgs::CompressedImage frame_jpeg_;
+  sensor_msgs::Image frame_image_;
   double last_cmd_s_ = -1e9;
   bool watchdog_stopped_ = true;
   bool have_cmd_ = false, lockstep_released_ = false;

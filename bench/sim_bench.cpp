@@ -77,8 +77,10 @@ struct RunStats {
 /// the camera at its rate: each frame blurred over the exposure as the node does (its default
 /// ~max_blur_samples 8), then JPEG-encoded (a calibration subscribes to the compressed topic).
 RunStats run(const RobotConfig& robot, const WorldConfig& world, const RenderOptions* render, Motion motion,
-             double sim_s) {
-  Simulation sim(robot, world, SimulationOptions());
+             double sim_s, bool hold_stopped_wheels = true) {
+  SimulationOptions sim_options;
+  sim_options.hold_stopped_wheels = hold_stopped_wheels;
+  Simulation sim(robot, world, sim_options);
   std::unique_ptr<Renderer> renderer;
   if (render) renderer = std::make_unique<Renderer>(robot.camera, world, *render);
   std::mt19937_64 rng(7), range_rng(8);
@@ -225,7 +227,7 @@ int main(int argc, char** argv) {
     const char* targets[] = {">= 10", ">= 10", ">= 3"};
     RunStats before[3], after[3];
     for (int m = 0; m < 3; ++m) {
-      before[m] = run(robot, world, &today, motions[m], sim_s);
+      before[m] = run(robot, world, &today, motions[m], sim_s, /*hold_stopped_wheels=*/false);
       after[m] = run(robot, world, &options, motions[m], sim_s);
     }
     const RunStats without = run(robot, world, nullptr, Motion::kDrive, sim_s);
@@ -244,12 +246,14 @@ int main(int argc, char** argv) {
         "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px:\n"
         "-1`; blurred frames add every pose's blends into the image, `blur_block_sums: false`,\n"
         "every pose at full resolution, `blur_half_res_poses: 0`; every edge sample traced,\n"
-        "`edge_samples_on_plane: false`),\n"
+        "`edge_samples_on_plane: false`; a coasting wheel creeps on the lag alone,\n"
+        "`SimulationOptions::hold_stopped_wheels: false`),\n"
         "run side by side in the same process; \"now\" is the default (a still frame within %.2g\n"
         "px of the last rendered still frame reuses its noiseless image and gets fresh noise; a\n"
         "blurred frame sums its poses' 4x4 blends per block and blends each block once, and one\n"
         "of 4 or more poses renders about half of them at half resolution and scales the average\n"
-        "up; an edge pixel whose corners lie on one plane colours its samples on that plane). Both\n"
+        "up; an edge pixel whose corners lie on one plane colours its samples on that plane; a\n"
+        "coasting wheel is held once the rest of its coast is 1/20 encoder tick or less). Both\n"
         "columns share two changes that leave the images as they were: a still frame writes its\n"
         "pixels (no clearing pass), and the noise and the rounding to 8 bits go row by row (no\n"
         "image-sized float buffer in between).\n\n",

@@ -72,6 +72,12 @@ Simulation::Simulation(const RobotConfig& robot, const WorldConfig& world,
   dt_s_ = 1.0 / options_.physics_rate_hz;
   radius_m_[0] = robot.wheel_radius_left;
   radius_m_[1] = robot.wheel_radius_right;
+  // The rest of a coast from speed w, integrated as step() does (this step's turn, then the lag's
+  // geometric decay): w * dt / (1 - decay). Held below the speed where that is 1/20 encoder tick.
+  if (options_.hold_stopped_wheels && robot_.motor_time_constant > 0) {
+    const double decay = std::exp(-dt_s_ / robot_.motor_time_constant);
+    stop_speed_rad_s_ = (2 * M_PI / robot_.encoder_resolution) / 20.0 * (1.0 - decay) / dt_s_;
+  }
   gain_[0] = robot.motor_gain_left;
   gain_[1] = robot.motor_gain_right;
 
@@ -205,6 +211,13 @@ void Simulation::step() {
   for (int i = 0; i < 2; ++i) {
     const double target = steadyWheelSpeed(duty_[i], gain_[i], robot_.motor_constant, robot_.deadband);
     wheel_speed_rad_s_[i] += (target - wheel_speed_rad_s_[i]) * blend;
+    // A coasting wheel that has all but stopped is held by the gearbox's friction: the lag alone
+    // lets it creep on, ever slower (the pose moves for about 0.6 s, until its steps fall below
+    // the body's float resolution), and every frame of a creeping robot is rendered anew. It stops
+    // where the rest of its coast would turn it by a twentieth of an encoder tick or less (below
+    // about 0.046 rad/s for 135 ticks and 0.05 s): no encoder reading and no pose a stage measures
+    // changes by more than that.
+    if (target == 0.0 && std::abs(wheel_speed_rad_s_[i]) < stop_speed_rad_s_) wheel_speed_rad_s_[i] = 0.0;
   }
   applyTraction();
   world_->Step(static_cast<float>(dt_s_), options_.velocity_iterations, options_.position_iterations);

@@ -152,6 +152,34 @@ TEST(SimPhysics, WheelsFollowTheMotorTimeConstant) {
   EXPECT_NEAR(sim.wheelSpeed(Side::kLeft) / r.motor_constant, 1 - std::exp(-1.0), 0.01);
 }
 
+// Left without drive, the wheel's first-order lag alone would creep ever slower for ever; it is
+// held once the rest of its coast is a twentieth of an encoder tick or less.
+TEST(SimPhysics, CoastingWheelStopsWithinATwentiethOfATickOfTheLagsCoast) {
+  const RobotConfig r = idealRobot();
+  Simulation sim(r, emptyWorld(), SimulationOptions());
+  sim.setDuty(0.5, 0.5);
+  sim.advance(1.0);
+  const double w0 = sim.wheelSpeed(Side::kLeft), a0 = sim.wheelAngle(Side::kLeft);
+  ASSERT_GT(w0, 10.0);
+  sim.setDuty(0.0, 0.0);
+  sim.advance(0.6);
+  EXPECT_EQ(sim.wheelSpeed(Side::kLeft), 0.0);
+  EXPECT_EQ(sim.wheelSpeed(Side::kRight), 0.0);
+  // The lag's whole coast, integrated as the simulation integrates it (step by step, exactly).
+  const double dt = sim.timestep_s(), decay = std::exp(-dt / r.motor_time_constant);
+  const double lag_coast = w0 * dt * decay / (1.0 - decay);
+  const double coast = sim.wheelAngle(Side::kLeft) - a0;
+  const double tick = 2 * M_PI / r.encoder_resolution;
+  EXPECT_LE(coast, lag_coast);
+  EXPECT_GT(coast, lag_coast - tick / 20.0);
+  // Once held, the wheel and the robot stay where they are.
+  const Pose2 held = sim.pose();
+  const double held_angle = sim.wheelAngle(Side::kLeft);
+  sim.advance(0.5);
+  EXPECT_EQ(sim.wheelAngle(Side::kLeft), held_angle);
+  EXPECT_NEAR(sim.pose().x_m, held.x_m, 1e-6);
+}
+
 TEST(SimPhysics, WallStopsTheRobot) {
   WorldConfig w;
   autocal::sim::WallConfig wall;

@@ -1,7 +1,8 @@
 // The simulated robot and world: Box2D physics of a wheel-level differential drive.
 //
 // Each wheel has its own true radius and motor gain; a duty in [-1, 1] becomes a wheel speed
-// through the motor constant, a deadband and a first-order lag. The wheels move the chassis only
+// through the motor constant, a deadband and a first-order lag (a coasting wheel that has all but
+// stopped is held: it stops within 1/20 of an encoder tick of where the lag would creep it). The wheels move the chassis only
 // through impulses at their contact points that make the contact point roll without slipping,
 // sideways or lengthwise, up to the wheel's traction limit (friction x normal load): the body
 // velocity is never set directly, so collisions with walls, board stands and obstacles push back
@@ -34,6 +35,10 @@ struct SimulationOptions {
   int velocity_iterations = 8;
   int position_iterations = 3;
   double pose_history_s = 0.5;  ///< poses kept for motion blur
+  /// A coasting wheel is held once the rest of its coast is 1/20 encoder tick or less (false: the
+  /// lag alone lets it creep on, ever slower, for about 0.6 s; the code before, for the
+  /// benchmark's side by side).
+  bool hold_stopped_wheels = true;
 };
 
 /// Steady-state wheel speed [rad/s] of a motor for a duty in [-1, 1]: zero within the deadband,
@@ -108,6 +113,8 @@ class Simulation {
   double wheel_angle_rad_[2] = {0, 0};
   double radius_m_[2];
   double gain_[2];
+  /// A coasting wheel slower than this stops (the rest of its coast: 1/20 encoder tick) [rad/s].
+  double stop_speed_rad_s_ = 0;
   double normal_load_n_[2];
   struct Stamped {
     double t_s;

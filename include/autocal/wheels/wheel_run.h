@@ -132,6 +132,18 @@ MotorFitOptions motorFitOptions(const WheelRunOptions& options);
 KinematicsParams calibratedKinematics(const KinematicsParams& before, double ratio,
                                       const MotorFitter& fit, bool compensate_deadband);
 
+/// The first guesses of the two deadbands [duty] from the camera stage's minimum moving duties.
+/// The probe finds each only to its duty step (and the tick the wheel rested on), so two minima
+/// within `resolution` of each other are one deadband seen twice: both wheels get their mean. Two
+/// different guesses for equal deadbands bias the first drives' speed ratio (0.10/0.11 for 0.08
+/// and 0.08: 3 %, the first drive measured with the wrong sign) and the ratio then jumps when the
+/// fitted deadbands replace the guesses (a turn of 13-15 deg in the next drive). Minima further
+/// apart are two different deadbands and are kept.
+struct DeadbandGuesses {
+  double left = 0, right = 0;
+};
+DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, double resolution);
+
 class WheelRun {
  public:
   /// Throws ConfigError on bad options or intrinsics.

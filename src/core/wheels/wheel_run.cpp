@@ -182,6 +182,14 @@ KinematicsParams calibratedKinematics(const KinematicsParams& before, double rat
   return p;
 }
 
+DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, double resolution) {
+  if (std::abs(min_duty_left - min_duty_right) <= resolution + 1e-9) {
+    const double mean = 0.5 * (min_duty_left + min_duty_right);
+    return {mean, mean};
+  }
+  return {min_duty_left, min_duty_right};
+}
+
 KinematicsParams WheelRun::driveParams() const {
   return calibratedKinematics(options_.kinematics, estimator_.ratio(), fitter_,
                               options_.compensate_deadband);

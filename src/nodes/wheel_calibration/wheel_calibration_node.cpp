@@ -30,6 +30,9 @@ void WheelCalibrationNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
                         "must be < 0.9 (negative: automatic)");
+  ros_layer::checkParam(std::isfinite(deadband_guess_resolution) && deadband_guess_resolution >= 0 &&
+                            deadband_guess_resolution < 0.5,
+                        "deadband_guess_resolution", "must be in [0, 0.5) (0: each its own)");
   ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
                         "must not be empty");
   ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
@@ -56,6 +59,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("status_rate_hz", o.status_rate_hz);
   p.get("update_kinematics_node", o.update_kinematics_node);
   p.get("deadband_guess", o.deadband_guess);
+  p.get("deadband_guess_resolution", o.deadband_guess_resolution);
   p.get("passive", o.passive);
   p.get("recorded_status_topic", o.recorded_status_topic);
   p.get("recording_end_wait_s", o.recording_end_wait_s);
@@ -191,7 +195,12 @@ void WheelCalibrationNode::run() {
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
   double guess_left = options_.deadband_guess, guess_right = options_.deadband_guess;
-  if (guess_left < 0) {
+  if (guess_left < 0 && camera_min_duty_left_ >= 0 && camera_min_duty_right_ >= 0) {
+    const DeadbandGuesses g = deadbandGuesses(camera_min_duty_left_, camera_min_duty_right_,
+                                              options_.deadband_guess_resolution);
+    guess_left = g.left;
+    guess_right = g.right;
+  } else if (guess_left < 0) {
     guess_left = camera_min_duty_left_ >= 0 ? camera_min_duty_left_ : before_.deadband_left;
     guess_right = camera_min_duty_right_ >= 0 ? camera_min_duty_right_ : before_.deadband_right;
   }

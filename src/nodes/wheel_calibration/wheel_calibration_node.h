@@ -55,6 +55,9 @@ struct WheelCalibrationNodeOptions {
   /// First guess of each wheel's deadband [duty]; negative: the camera stage's minimum moving duty
   /// (its DONE figures), else the kinematics file's offsets.
   double deadband_guess = -1;
+  /// The camera stage's two minimum duties within this of each other are one deadband seen twice
+  /// (its probe's duty step): both wheels' first guess is their mean (wheels::deadbandGuesses).
+  double deadband_guess_resolution = 0.01;
   /// Replay a recording instead of driving the robot (see above).
   bool passive = false;
   /// Passive: where the recording's calibration/status is played (replay.launch remaps it).

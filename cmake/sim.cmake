@@ -45,11 +45,11 @@ target_link_libraries(sim_bench autocal_sim_core)
 set_target_properties(sim_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 
 # Validation tool: a calibration's camera_info YAML next to the simulated robot's true lens.
-add_executable(compare_camera src/nodes/compare_camera_main.cpp)
+add_executable(compare_camera src/nodes/sim_tools/compare_camera_main.cpp)
 target_link_libraries(compare_camera autocal_sim_core autocal_ros)
 target_compile_options(compare_camera PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(compare_camera)
-add_executable(compare_wheels src/nodes/compare_wheels_main.cpp)
+add_executable(compare_wheels src/nodes/sim_tools/compare_wheels_main.cpp)
 target_link_libraries(compare_wheels autocal_sim_core autocal_core)
 target_compile_options(compare_wheels PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(compare_wheels PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

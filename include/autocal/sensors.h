@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 namespace autocal {
 
@@ -22,28 +23,51 @@ struct RangeReading {
   double max_range_m = 0.0;  ///< [m]
 };
 
-/// The latest reading of both wheels' encoders and when either last changed: what "the wheels are
-/// still" is decided on. Readings older than the latest are ignored.
-struct EncoderTrack {
-  bool valid = false;
-  double stamp_s = -1.0;        ///< the latest reading's [s]
-  double last_change_s = -1.0;  ///< when a count last changed (the first reading counts) [s]
-  int left = 0, right = 0;      ///< cumulative ticks
+/// Both wheels' encoders as one, the part every driving stage and replay shares: the latest
+/// reading, the counts unwrapped (32-bit counts wrap around: the difference modulo 2^32 is the
+/// motion), and when each wheel last changed. Readings older than the latest are ignored.
+class EncoderTracker {
+ public:
+  /// What one reading added.
+  struct Step {
+    bool accepted = false;    ///< false: older than the latest reading, ignored
+    bool first = false;       ///< the first reading (no motion to add)
+    double left_ticks = 0.0;  ///< unwrapped increments since the previous reading
+    double right_ticks = 0.0;
+    double dt_s = 0.0;  ///< since the previous reading [s]
+  };
 
-  /// False (and ignored) when older than the latest reading.
-  bool add(double reading_stamp_s, int left_ticks, int right_ticks) {
-    if (valid && reading_stamp_s < stamp_s) return false;
-    if (!valid || left_ticks != left || right_ticks != right) last_change_s = reading_stamp_s;
-    valid = true;
-    stamp_s = reading_stamp_s;
-    left = left_ticks;
-    right = right_ticks;
-    return true;
+  Step add(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
+
+  bool valid() const { return valid_; }
+  double stampS() const { return stamp_s_; }  ///< the latest reading's [s]
+  double lastChangeS() const {
+    return last_change_s_;
+  }  ///< either count (the first reading counts)
+  double lastChangeS(int side) const {
+    return side == 0 ? last_change_left_s_ : last_change_right_s_;
   }
+  std::int32_t rawLeft() const { return raw_left_; }  ///< as the latest reading gave them
+  std::int32_t rawRight() const { return raw_right_; }
+  double left() const { return left_; }  ///< unwrapped ticks since the first reading
+  double right() const { return right_; }
+
   /// A reading at or after `since_s`, and no count changed for `still_s` before it.
   bool stillSince(double since_s, double still_s) const {
-    return valid && stamp_s >= since_s && stamp_s - last_change_s >= still_s;
+    return valid_ && stamp_s_ >= since_s && stamp_s_ - last_change_s_ >= still_s;
   }
+
+  /// "encoder jump: left L, right R ticks in T s (an encoder reset or a glitch)" when `step` moved
+  /// a wheel further than `max_rate_pulses_per_s` allows over max(its interval, `window_s`) plus 5
+  /// ticks; empty otherwise.
+  static std::string jump(const Step& step, double max_rate_pulses_per_s, double window_s);
+
+ private:
+  bool valid_ = false;
+  double stamp_s_ = -1.0;
+  double last_change_s_ = -1.0, last_change_left_s_ = -1.0, last_change_right_s_ = -1.0;
+  std::int32_t raw_left_ = 0, raw_right_ = 0;
+  double left_ = 0.0, right_ = 0.0;
 };
 
 /// Duties of the two motors, −1..1 (Duckietown's wheels_cmd vel_left/vel_right).

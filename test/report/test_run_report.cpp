@@ -28,6 +28,8 @@ StatusUpdate status(double t, const std::string& phase, StatusUpdate::State stat
   u.state = state;
   u.text = text;
   if (state == StatusUpdate::State::kFailed) u.failure_reason = text;
+  // As StatusPublisher::wrote: a DONE "wrote <file>" carries the file in its own field.
+  if (state == StatusUpdate::State::kDone && text.rfind("wrote ", 0) == 0) u.file = text.substr(6);
   u.figures = std::move(figures);
   return u;
 }

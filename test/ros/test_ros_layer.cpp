@@ -98,6 +98,7 @@ TEST(NodeRuntime, ResumeKeepsAStageTheLastReportSaysSucceeded) {
   u.phase = "camera/write";
   u.state = autocal::report::StatusUpdate::State::kDone;
   u.text = "wrote " + camera_file;
+  u.file = camera_file;
   u.figures = {{"fx", 318.0}, {"min_duty_left_forward", 0.11}};
   r.addStatus(u);
   u.phase = "wheels/iterate";
@@ -118,6 +119,7 @@ TEST(NodeRuntime, ResumeKeepsAStageTheLastReportSaysSucceeded) {
   EXPECT_EQ(got.back().state, CalibrationStatus::STATE_DONE);
   EXPECT_EQ(got.back().phase, "camera/resumed");
   EXPECT_EQ(got.back().text, "kept " + camera_file);
+  EXPECT_EQ(got.back().file, camera_file);
   ASSERT_EQ(got.back().figure_names.size(), 2u);
   EXPECT_EQ(got.back().figure_names[1], "min_duty_left_forward");
   EXPECT_DOUBLE_EQ(got.back().figure_values[1], 0.11);

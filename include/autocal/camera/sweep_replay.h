@@ -15,6 +15,7 @@
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_run.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/motion.h"
 #include "autocal/sensors.h"
 
 namespace autocal {
@@ -62,7 +63,7 @@ class SweepReplay {
   bool taken_ = true;  ///< the current stop's frame was taken (nothing to take before a stop)
   double stop_s_ = 0;
   int stops_ = 0;
-  EncoderTrack encoders_;
+  EncoderTracker encoders_;
   std::map<int, cv::Mat> frames_;
   bool frames_seen_ = false;
   double first_frame_s_ = 0, last_frame_s_ = 0;

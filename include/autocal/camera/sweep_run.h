@@ -21,6 +21,7 @@
 #include "autocal/camera/min_duty_probe.h"
 #include "autocal/camera/sweep_controller.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/motion.h"
 #include "autocal/sensors.h"
 
 namespace autocal {
@@ -175,9 +176,9 @@ class SweepRun {
   bool started_ = false;
   double start_s_ = 0, last_now_s_ = 0;
   double pulse_end_s_ = 0, stop_s_ = 0;
-  bool have_encoders_ = false;
-  double encoder_stamp_s_ = 0, encoder_arrival_s_ = 0, last_change_s_ = 0;
-  int left_ = 0, right_ = 0, ticks_per_rev_ = 0;
+  EncoderTracker encoders_;
+  double encoder_arrival_s_ = 0;
+  int ticks_per_rev_ = 0;
   int probe_start_left_ = 0, probe_start_right_ = 0;
   int obs_left_ = 0, obs_right_ = 0;  ///< ticks at the last observation
   bool have_frame_ = false;

@@ -10,6 +10,10 @@
 namespace autocal {
 namespace odometry {
 
+/// An odometry stage's stop has settled after this long at the latest, whatever the encoders say
+/// [s] (UahRun, UmbmarkRun and the UAH replay).
+constexpr double kMaxSettleS = 3.0;
+
 /// The kinematic parameters odometry needs: distance per encoder pulse of each wheel (paper
 /// 002's c_L, c_R, here in metres) and the effective wheelbase b.
 struct DiffDriveParams {

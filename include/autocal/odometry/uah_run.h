@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/motion.h"
 #include "autocal/odometry/dead_reckoning.h"
 #include "autocal/odometry/uah.h"
 #include "autocal/sensors.h"
@@ -149,7 +150,7 @@ class UahRun {
   /// The straight run under way or waiting for its length: 1-based, and the time its duties first
   /// went out [s] (the robot stood still until then: a ground-truth helper measures from there).
   int straightRun() const { return attempts_ + 1; }
-  double straightRunStartS() const { return motion_start_s_; }
+  double straightRunStartS() const { return motion_clock_.startS(); }
   /// The round the current turn is in (1-based; 0 before a round is detected), the latest pulses
   /// per round of the current turn (0 until detected).
   int round() const;
@@ -197,17 +198,14 @@ class UahRun {
 
   bool started_ = false;
   double start_s_ = 0, last_now_s_ = 0;
-  bool have_encoders_ = false;
-  double encoder_stamp_s_ = -1, last_encoder_arrival_s_ = 0, last_range_arrival_s_ = 0;
-  std::int32_t raw_left_ = 0, raw_right_ = 0;
-  double left_ = 0, right_ = 0;  // unwrapped
-  double last_change_left_s_ = 0, last_change_right_s_ = 0, last_change_s_ = 0;
+  EncoderTracker encoders_;
+  double last_encoder_arrival_s_ = 0, last_range_arrival_s_ = 0;
   std::vector<Sample> history_;  // the current motion's encoder samples
 
   // motion
   WheelDuties duties_;
-  bool clock_started_ = true;
-  double motion_start_s_ = 0, stop_s_ = -1e9;
+  MotionClock motion_clock_;
+  double stop_s_ = -1e9;
   double duty_mag_[2] = {0, 0};
   double start_left_ = 0, start_right_ = 0;
 

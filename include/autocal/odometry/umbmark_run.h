@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/motion.h"
 #include "autocal/odometry/dead_reckoning.h"
 #include "autocal/odometry/umbmark.h"
 #include "autocal/sensors.h"
@@ -155,11 +156,7 @@ class UmbmarkRun {
 
   bool started_ = false;
   double start_s_ = 0, last_now_s_ = 0, last_update_s_ = 0;
-  bool have_encoders_ = false;
-  double encoder_stamp_s_ = -1;
-  std::int32_t raw_left_ = 0, raw_right_ = 0;
-  double left_ = 0, right_ = 0;  // unwrapped
-  double last_change_left_s_ = 0, last_change_right_s_ = 0, last_change_s_ = 0;
+  EncoderTracker encoders_;
   struct Sample {
     double stamp_s, left, right;
   };
@@ -174,8 +171,8 @@ class UmbmarkRun {
   std::vector<Pose2D> computed_ends_;
   double awaiting_since_s_ = 0;
   double run_start_s_ = 0;
-  bool clock_started_ = true;
-  double motion_start_s_ = 0, stop_s_ = -1e9;
+  MotionClock motion_clock_;
+  double stop_s_ = -1e9;
   WheelDuties duties_;
   double drive_duty_ = 0, turn_duty_[2] = {0, 0}, duty_mag_[2] = {0, 0};
   double heading_integral_ = 0;

@@ -24,6 +24,7 @@ struct StatusUpdate {
   enum class State { kIdle, kRunning, kDone, kFailed } state = State::kRunning;
   double progress = -1;
   std::string text, failure_reason;
+  std::string file;  ///< the file a DONE stage wrote or kept
   std::vector<std::pair<std::string, double>> figures;
 };
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "autocal/camera_intrinsics.h"
+#include "autocal/motion.h"
 #include "autocal/sensors.h"
 #include "autocal/wheels/motor_fit.h"
 #include "autocal/wheels/tag_heading.h"
@@ -90,7 +91,7 @@ class WheelReplay {
   WheelRunOptions options_;
   std::unique_ptr<markers::TagDetector> detector_;
   std::vector<Segment> segments_;
-  EncoderTrack encoders_;
+  EncoderTracker encoders_;
   int ticks_per_rev_ = 0;
 };
 

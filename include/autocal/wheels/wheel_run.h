@@ -24,6 +24,7 @@
 
 #include "autocal/camera_intrinsics.h"
 #include "autocal/markers/tag_detector.h"
+#include "autocal/motion.h"
 #include "autocal/sensors.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal/wheels/motor_fit.h"
@@ -32,6 +33,10 @@
 
 namespace autocal {
 namespace wheels {
+
+/// A wheel-stage stop has settled after this long at the latest, whatever the encoders say [s]
+/// (WheelRun and its replay).
+constexpr double kMaxSettleS = 2.0;
 
 struct WheelRunOptions {
   markers::TagDetectorOptions detector;
@@ -213,10 +218,10 @@ class WheelRun {
   // clock and inputs
   bool started_ = false;
   double start_s_ = 0, last_now_s_ = 0;
-  bool have_frame_ = false, have_encoders_ = false;
+  bool have_frame_ = false;
   int updates_without_frames_ = 0, updates_without_encoders_ = 0;
-  double encoder_stamp_s_ = -1, last_change_s_ = -1;
-  int left_ = 0, right_ = 0, ticks_per_rev_ = 0;
+  EncoderTracker encoders_;
+  int ticks_per_rev_ = 0;
 
   // motion
   WheelDuties duties_;

@@ -37,12 +37,9 @@ void SweepReplay::setCollecting(double stamp_s, bool collecting) {
 }
 
 bool SweepReplay::wantsFrame(double stamp_s) const {
-  if (!collecting_ || moving_ || taken_ || !encoders_.valid) return false;
-  // SweepRun::settled: settle_s after the stop, then the encoders still for still_s, or
-  // max_settle_s after the stop whatever they say.
-  if (stamp_s < stop_s_ + options_.sweep.settle_s) return false;
-  if (stamp_s >= stop_s_ + options_.sweep.max_settle_s) return true;
-  return encoders_.stillSince(stop_s_, options_.still_s);
+  if (!collecting_ || moving_ || taken_ || !encoders_.valid()) return false;
+  return SettleRule{options_.sweep.settle_s, options_.still_s, options_.sweep.max_settle_s}.settled(
+      stop_s_, stamp_s, encoders_);
 }
 
 bool SweepReplay::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {

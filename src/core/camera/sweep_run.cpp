@@ -86,23 +86,19 @@ void SweepRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution " + std::to_string(ticks_per_revolution) +
                      ": must be > 0 ticks per revolution");
-  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
-  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
-  if (!have_encoders_) {
+  const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
+  if (!step.accepted) return;
+  if (step.first) {
     obs_left_ = probe_start_left_ = left_ticks;
     obs_right_ = probe_start_right_ = right_ticks;
   }
-  have_encoders_ = true;
-  encoder_stamp_s_ = stamp_s;
   encoder_arrival_s_ = std::max(encoder_arrival_s_, now_s);
   updates_without_encoders_ = 0;
-  left_ = left_ticks;
-  right_ = right_ticks;
   ticks_per_rev_ = ticks_per_revolution;
 }
 
 void SweepRun::noteEncodersArrived(double now_s) {
-  if (have_encoders_) encoder_arrival_s_ = std::max(encoder_arrival_s_, now_s);
+  if (encoders_.valid()) encoder_arrival_s_ = std::max(encoder_arrival_s_, now_s);
   updates_without_encoders_ = 0;
 }
 
@@ -113,11 +109,10 @@ void SweepRun::noteFrameArrived(double now_s) {
 }
 
 bool SweepRun::settled(double now_s) const {
-  if (now_s < stop_s_ + (stage_ == SweepRunStage::kProbe ? options_.probe.settle_s
-                                                         : options_.sweep.settle_s))
-    return false;
-  if (now_s >= stop_s_ + options_.sweep.max_settle_s) return true;  // use the frame as it is
-  return encoder_stamp_s_ - last_change_s_ >= options_.still_s && encoder_stamp_s_ >= stop_s_;
+  const double settle_s =
+      stage_ == SweepRunStage::kProbe ? options_.probe.settle_s : options_.sweep.settle_s;
+  return SettleRule{settle_s, options_.still_s, options_.sweep.max_settle_s}.settled(stop_s_, now_s,
+                                                                                     encoders_);
 }
 
 bool SweepRun::wantsFrame(double stamp_s) const {
@@ -127,10 +122,10 @@ bool SweepRun::wantsFrame(double stamp_s) const {
 
 double SweepRun::headingChangeSinceObservation() {
   const double m_per_tick = 2 * M_PI * options_.nominal_wheel_radius_m / ticks_per_rev_;
-  const double turned =
-      ((right_ - obs_right_) - (left_ - obs_left_)) * m_per_tick / options_.nominal_wheelbase_m;
-  obs_left_ = left_;
-  obs_right_ = right_;
+  const double turned = ((encoders_.rawRight() - obs_right_) - (encoders_.rawLeft() - obs_left_)) *
+                        m_per_tick / options_.nominal_wheelbase_m;
+  obs_left_ = encoders_.rawLeft();
+  obs_right_ = encoders_.rawRight();
   return turned;
 }
 
@@ -200,10 +195,10 @@ WheelDuties SweepRun::update(double now_s) {
     if (!have_frame_ && now_s - first_update_s_ > options_.camera_timeout_s)
       fail("no camera frame in " + formatNumber(options_.camera_timeout_s, 3) +
            " s: is the camera running (camera_node/image)?");
-    if (!have_encoders_ && now_s - first_update_s_ > options_.encoder_timeout_s)
+    if (!encoders_.valid() && now_s - first_update_s_ > options_.encoder_timeout_s)
       fail("no encoder reading of both wheels in " + formatNumber(options_.encoder_timeout_s, 3) +
            " s: are the wheel encoders running (left/right_wheel_encoder_node/tick)?");
-    if (!have_frame_ || !have_encoders_) return stop;
+    if (!have_frame_ || !encoders_.valid()) return stop;
     started_ = true;
     start_s_ = now_s;
     stage_ = options_.probe_min_duty ? SweepRunStage::kProbe : SweepRunStage::kSweep;
@@ -245,8 +240,8 @@ WheelDuties SweepRun::update(double now_s) {
   }
   if (stage_ == SweepRunStage::kProbe) {
     const WheelCommand probed = probe_.command();
-    const int moved =
-        probed.wheel == Wheel::kLeft ? left_ - probe_start_left_ : right_ - probe_start_right_;
+    const int moved = probed.wheel == Wheel::kLeft ? encoders_.rawLeft() - probe_start_left_
+                                                   : encoders_.rawRight() - probe_start_right_;
     if (probe_pulsed_) probe_.report(moved, false);  // signed, + = forward
     if (probe_.failed()) fail("minimum duty probe: " + probe_.failure());
     if (probe_.finished()) {
@@ -255,8 +250,8 @@ WheelDuties SweepRun::update(double now_s) {
       settled_at_s_ = -1;
       return stop;
     }
-    probe_start_left_ = left_;
-    probe_start_right_ = right_;
+    probe_start_left_ = encoders_.rawLeft();
+    probe_start_right_ = encoders_.rawRight();
     probe_pulsed_ = true;
     startPulse(now_s, probe_.pulse(), options_.probe.pulse_s);
     return duties_;
@@ -334,7 +329,8 @@ std::string SweepRun::describe() const {
   switch (stage_) {
     case SweepRunStage::kWaitForData:
       s << "waiting for " << (have_frame_ ? "" : "the camera")
-        << (have_frame_ || have_encoders_ ? "" : " and ") << (have_encoders_ ? "" : "the encoders");
+        << (have_frame_ || encoders_.valid() ? "" : " and ")
+        << (encoders_.valid() ? "" : "the encoders");
       break;
     case SweepRunStage::kProbe: {
       const WheelCommand c = probe_.command();

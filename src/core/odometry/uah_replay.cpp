@@ -14,8 +14,6 @@ namespace odometry {
 
 namespace {
 
-constexpr double kMaxSettleS = 3.0;  // as UahRun: a stop has settled after this at the latest
-
 struct Sample {
   double stamp_s;
   double left, right;  // unwrapped ticks
@@ -185,8 +183,9 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     }
   }
   if (!std::isfinite(first_experiment_s)) {
-    throw InputError("no odometry/<experiment> status was recorded: is this a recording of "
-                     "odometry_calibration_node's UAH run?");
+    throw InputError(
+        "no odometry/<experiment> status was recorded: is this a recording of "
+        "odometry_calibration_node's UAH run?");
   }
 
   // Each motion's experiment: the recorded status phase most seen while it moved (the node

@@ -12,7 +12,6 @@ namespace autocal {
 namespace odometry {
 
 namespace {
-constexpr double kMaxSettleS = 3.0;
 constexpr double kRateWindowS = 0.5;
 std::string deg(double rad) { return formatNumber(rad * 180.0 / M_PI, 3) + " deg"; }
 bool isTurn(UahExperiment e) {
@@ -97,41 +96,19 @@ void UahRun::fail(const std::string& why) {
 
 void UahRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
   if (failed() || done()) return;
-  if (!have_encoders_) {
-    have_encoders_ = true;
-    raw_left_ = left_ticks, raw_right_ = right_ticks;
-    encoder_stamp_s_ = last_change_left_s_ = last_change_right_s_ = last_change_s_ = stamp_s;
-    return;
-  }
-  if (stamp_s < encoder_stamp_s_) return;
-  // 32-bit counts wrap around: the difference modulo 2^32 is the motion.
-  const auto diff = [](std::int32_t now, std::int32_t before) {
-    return static_cast<std::int32_t>(static_cast<std::uint32_t>(now) -
-                                     static_cast<std::uint32_t>(before));
-  };
-  const double dl = diff(left_ticks, raw_left_), dr = diff(right_ticks, raw_right_);
-  const double allowed = options_.max_encoder_rate_pulses_per_s *
-                             std::max(stamp_s - encoder_stamp_s_, options_.encoder_jump_window_s) +
-                         5;
-  if (std::abs(dl) > allowed || std::abs(dr) > allowed) {
-    fail("encoder jump: left " + formatNumber(dl, 8) + ", right " + formatNumber(dr, 8) +
-         " ticks in " + formatNumber(stamp_s - encoder_stamp_s_, 3) +
-         " s (an encoder reset or a glitch); the pulse counts cannot be trusted");
-  }
-  raw_left_ = left_ticks, raw_right_ = right_ticks;
-  left_ += dl, right_ += dr;
-  if (dl != 0) last_change_left_s_ = stamp_s;
-  if (dr != 0) last_change_right_s_ = stamp_s;
-  if (dl != 0 || dr != 0) last_change_s_ = stamp_s;
-  encoder_stamp_s_ = stamp_s;
+  const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
+  if (!step.accepted || step.first) return;
+  const std::string jump = EncoderTracker::jump(step, options_.max_encoder_rate_pulses_per_s,
+                                                options_.encoder_jump_window_s);
+  if (!jump.empty()) fail(jump + "; the pulse counts cannot be trusted");
   if (motion_ == Motion::kNone) return;
   // The two wheels' messages arrive one after the other with the same stamp (the driver reads
   // both at once): the second completes the first's reading instead of adding a half-updated one
   // (a pulse rate's worth of false heading).
   if (!history_.empty() && history_.back().stamp_s == stamp_s) {
-    history_.back() = {stamp_s, left_, right_};
+    history_.back() = {stamp_s, encoders_.left(), encoders_.right()};
   } else {
-    history_.push_back({stamp_s, left_, right_});
+    history_.push_back({stamp_s, encoders_.left(), encoders_.right()});
   }
 }
 
@@ -145,9 +122,11 @@ void UahRun::addRange(double stamp_s, double range_m) {
     if (!valid) ++invalid_ranges_;
   }
   if (experiment_ == UahExperiment::kStraight && motion_ == Motion::kDrive && straight_dir_ > 0 &&
-      clock_started_ && stamp_s >= motion_start_s_ && valid && range_m < options_.min_clearance_m) {
+      motion_clock_.started() && stamp_s >= motion_clock_.startS() && valid &&
+      range_m < options_.min_clearance_m) {
     fail("straight run cut short: an obstacle " + formatNumber(range_m, 3) + " m ahead after " +
-         formatNumber(std::abs(right_ - start_right_) * options_.nominal.right_m_per_pulse, 3) +
+         formatNumber(
+             std::abs(encoders_.right() - start_right_) * options_.nominal.right_m_per_pulse, 3) +
          " m (needs " + formatNumber(options_.straight_length_m, 3) + " m of free straight line)");
   }
 }
@@ -266,11 +245,10 @@ void UahRun::refuseFlatScene() {
 void UahRun::startTurn(UahExperiment experiment, double now_s) {
   experiment_ = experiment;
   motion_ = Motion::kTurn;
-  clock_started_ = false;
-  motion_start_s_ = now_s;
+  motion_clock_.reset(now_s);
   history_.clear();
-  history_.push_back({encoder_stamp_s_, left_, right_});
-  start_left_ = left_, start_right_ = right_;
+  history_.push_back({encoders_.stampS(), encoders_.left(), encoders_.right()});
+  start_left_ = encoders_.left(), start_right_ = encoders_.right();
   ranges_.clear();
   invalid_ranges_ = 0;
   online_ppr_ = 0;
@@ -283,11 +261,10 @@ void UahRun::startTurn(UahExperiment experiment, double now_s) {
 void UahRun::startStraight(double now_s) {
   experiment_ = UahExperiment::kStraight;
   motion_ = Motion::kDrive;
-  clock_started_ = false;
-  motion_start_s_ = now_s;
+  motion_clock_.reset(now_s);
   history_.clear();
-  history_.push_back({encoder_stamp_s_, left_, right_});
-  start_left_ = left_, start_right_ = right_;
+  history_.push_back({encoders_.stampS(), encoders_.left(), encoders_.right()});
+  start_left_ = encoders_.left(), start_right_ = encoders_.right();
   heading_integral_ = 0;
   // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
   // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
@@ -304,9 +281,8 @@ void UahRun::stop(double now_s) {
 }
 
 bool UahRun::settled(double now_s) const {
-  if (now_s < stop_s_ + options_.settle_s) return false;
-  if (now_s >= stop_s_ + kMaxSettleS) return true;
-  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
+                                                                              encoders_);
 }
 
 int UahRun::round() const {
@@ -475,12 +451,12 @@ WheelDuties UahRun::update(double now_s) {
     fail("the UAH run took longer than max_duration_s (" +
          formatNumber(options_.max_duration_s, 4) + " s) in " + name(experiment_));
   }
-  if (!have_encoders_) {
+  if (!encoders_.valid()) {
     if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
     return {};
   }
-  if (motion_ != Motion::kNone && now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
-    fail("the encoders went silent for " + formatNumber(now_s - encoder_stamp_s_, 3) + " s");
+  if (motion_ != Motion::kNone && now_s - encoders_.stampS() > options_.encoder_timeout_s) {
+    fail("the encoders went silent for " + formatNumber(now_s - encoders_.stampS(), 3) + " s");
   }
   if (experiment_ == UahExperiment::kWait) startTurn(UahExperiment::kPivotLeftStopped, now_s);
   if (awaiting_length_) {
@@ -495,32 +471,25 @@ WheelDuties UahRun::update(double now_s) {
     if (motion_ == Motion::kSettle || motion_ == Motion::kNone) return duties_ = {};
   }
   if (motion_ == Motion::kNone) return {};
-  if (!clock_started_) {
-    clock_started_ = true;
-    motion_start_s_ = now_s;
-  }
-  const double moving_s = now_s - motion_start_s_;
+  motion_clock_.start(now_s);
+  const double moving_s = motion_clock_.elapsedS(now_s);
 
   // Each driven wheel's duty follows its pulse-rate error (integral control): the robot's
   // deadbands and motor gains are unknown here.
   auto follow = [&](int side, double target) {
-    const double error = 1.0 - wheelRate(side, kRateWindowS) / target;
-    duty_mag_[side] =
-        std::clamp(duty_mag_[side] + options_.rate_gain_per_s * dt * error, 0.0, options_.max_duty);
+    duty_mag_[side] = followRate(duty_mag_[side], wheelRate(side, kRateWindowS), target,
+                                 options_.rate_gain_per_s, dt, options_.max_duty);
   };
   auto checkStall = [&](int side) {
-    const double last =
-        std::max(side == 0 ? last_change_left_s_ : last_change_right_s_, motion_start_s_);
-    if (now_s - last > options_.stall_s) {
-      fail(std::string(name(experiment_)) + ": the " + (side == 0 ? "left" : "right") +
-           " wheel has not moved for " + formatNumber(now_s - last, 3) + " s at duty " +
-           formatNumber(duty_mag_[side], 3) + " (the robot stalled: blocked, or a motor fault)");
-    }
+    const std::string stall =
+        stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
+    if (!stall.empty()) fail(std::string(name(experiment_)) + ": " + stall);
   };
 
   if (motion_ == Motion::kTurn) {
     if (moving_s > options_.range_timeout_s &&
-        now_s - std::max(last_range_arrival_s_, motion_start_s_) > options_.range_timeout_s) {
+        now_s - std::max(last_range_arrival_s_, motion_clock_.startS()) >
+            options_.range_timeout_s) {
       fail(std::string(name(experiment_)) + ": the range sensor went silent");
     }
     const RoundDetectionOptions det = detectionFor(experiment_);
@@ -576,8 +545,8 @@ WheelDuties UahRun::update(double now_s) {
 
   // A straight run (§2.3): the right wheel at its rate; the left wheel at the rate that keeps
   // N_L·c_L = N_R·c_R (N_L = Ed·N_R), and a PI on the heading error N_R − N_L/Ed [pulses].
-  const double dl = straight_dir_ * (left_ - start_left_);
-  const double dr = straight_dir_ * (right_ - start_right_);
+  const double dl = straight_dir_ * (encoders_.left() - start_left_);
+  const double dr = straight_dir_ * (encoders_.right() - start_right_);
   const double target_pulses = options_.straight_length_m / options_.nominal.right_m_per_pulse;
   if (dr >= target_pulses) {
     stop(now_s);

@@ -12,7 +12,6 @@ namespace autocal {
 namespace odometry {
 
 namespace {
-constexpr double kMaxSettleS = 3.0;
 constexpr double kRateWindowS = 0.4;
 
 const UmbmarkRunOptions& validated(const UmbmarkRunOptions& options) {
@@ -90,40 +89,19 @@ void UmbmarkRun::fail(const std::string& why) {
 
 void UmbmarkRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
   if (failed() || done()) return;
-  if (!have_encoders_) {
-    have_encoders_ = true;
-    raw_left_ = left_ticks, raw_right_ = right_ticks;
-    encoder_stamp_s_ = last_change_left_s_ = last_change_right_s_ = last_change_s_ = stamp_s;
-    return;
-  }
-  if (stamp_s < encoder_stamp_s_) return;
-  // 32-bit counts wrap around: the difference modulo 2^32 is the motion.
-  const auto diff = [](std::int32_t now, std::int32_t before) {
-    return static_cast<std::int32_t>(static_cast<std::uint32_t>(now) -
-                                     static_cast<std::uint32_t>(before));
-  };
-  const double dl = diff(left_ticks, raw_left_), dr = diff(right_ticks, raw_right_);
-  const double allowed = options_.max_encoder_rate_pulses_per_s *
-                             std::max(stamp_s - encoder_stamp_s_, options_.encoder_jump_window_s) +
-                         5;
-  if (std::abs(dl) > allowed || std::abs(dr) > allowed) {
-    fail("encoder jump: left " + formatNumber(dl, 8) + ", right " + formatNumber(dr, 8) +
-         " ticks in " + formatNumber(stamp_s - encoder_stamp_s_, 3) +
-         " s (an encoder reset or a glitch); the odometry of the square cannot be trusted");
-  }
-  raw_left_ = left_ticks, raw_right_ = right_ticks;
-  left_ += dl, right_ += dr;
-  if (dl != 0) last_change_left_s_ = stamp_s;
-  if (dr != 0) last_change_right_s_ = stamp_s;
-  if (dl != 0 || dr != 0) last_change_s_ = stamp_s;
-  encoder_stamp_s_ = stamp_s;
+  const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
+  if (!step.accepted || step.first) return;
+  const std::string jump = EncoderTracker::jump(step, options_.max_encoder_rate_pulses_per_s,
+                                                options_.encoder_jump_window_s);
+  if (!jump.empty()) fail(jump + "; the odometry of the square cannot be trusted");
   // The square's odometry (the robot may be pushed while waiting for an error: only motion
   // during a run counts, and each run starts from zero).
-  if (motion_ != Motion::kNone && motion_ != Motion::kPause) odometry_.addPulses(dl, dr);
+  if (motion_ != Motion::kNone && motion_ != Motion::kPause)
+    odometry_.addPulses(step.left_ticks, step.right_ticks);
   if (!recent_.empty() && recent_.back().stamp_s == stamp_s) {
-    recent_.back() = {stamp_s, left_, right_};
+    recent_.back() = {stamp_s, encoders_.left(), encoders_.right()};
   } else {
-    recent_.push_back({stamp_s, left_, right_});
+    recent_.push_back({stamp_s, encoders_.left(), encoders_.right()});
   }
   while (recent_.size() > 2 && recent_.front().stamp_s < stamp_s - 1.0) {
     recent_.erase(recent_.begin());
@@ -155,21 +133,18 @@ void UmbmarkRun::startRun(double now_s) {
   run_start_s_ = now_s;
   startLeg(now_s);
   // The run's clock (and the helper's start pose) begins when its first duties go out.
-  clock_started_ = false;
 }
 
 void UmbmarkRun::startLeg(double now_s) {
   motion_ = Motion::kDrive;
-  clock_started_ = false;
-  motion_start_s_ = now_s;
+  motion_clock_.reset(now_s);
   const double start = drive_duty_ > 0 ? drive_duty_ : options_.start_duty;
   duty_mag_[0] = duty_mag_[1] = start;
 }
 
 void UmbmarkRun::startTurn(double now_s) {
   motion_ = Motion::kTurn;
-  clock_started_ = false;
-  motion_start_s_ = now_s;
+  motion_clock_.reset(now_s);
   for (int side = 0; side < 2; ++side) {
     duty_mag_[side] = turn_duty_[side] > 0 ? turn_duty_[side] : options_.start_duty;
   }
@@ -184,9 +159,8 @@ void UmbmarkRun::stop(double now_s) {
 }
 
 bool UmbmarkRun::settled(double now_s) const {
-  if (now_s < stop_s_ + options_.settle_s) return false;
-  if (now_s >= stop_s_ + kMaxSettleS) return true;
-  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
+                                                                              encoders_);
 }
 
 void UmbmarkRun::onSettled(double now_s) {
@@ -286,12 +260,12 @@ WheelDuties UmbmarkRun::update(double now_s) {
     fail("the UMBmark run took longer than max_duration_s (" +
          formatNumber(options_.max_duration_s, 4) + " s) in " + name(phase_));
   }
-  if (!have_encoders_) {
+  if (!encoders_.valid()) {
     if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
     return {};
   }
-  if (motion_ != Motion::kNone && now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
-    fail("the encoders went silent for " + formatNumber(now_s - encoder_stamp_s_, 3) + " s");
+  if (motion_ != Motion::kNone && now_s - encoders_.stampS() > options_.encoder_timeout_s) {
+    fail("the encoders went silent for " + formatNumber(now_s - encoders_.stampS(), 3) + " s");
   }
   if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
   if (awaiting_error_ || awaiting_all_) {
@@ -312,12 +286,8 @@ WheelDuties UmbmarkRun::update(double now_s) {
     if (settled(now_s)) onSettled(now_s);
     if (motion_ != Motion::kDrive && motion_ != Motion::kTurn) return duties_ = {};
   }
-  if (!clock_started_) {
-    clock_started_ = true;
-    motion_start_s_ = now_s;
-    if (leg_ == 0 && motion_ == Motion::kDrive) run_start_s_ = now_s;
-  }
-  const double moving_s = now_s - motion_start_s_;
+  if (motion_clock_.start(now_s) && leg_ == 0 && motion_ == Motion::kDrive) run_start_s_ = now_s;
+  const double moving_s = motion_clock_.elapsedS(now_s);
   const DiffDriveParams& n = options_.nominal;
   const double c_mean = 0.5 * (n.left_m_per_pulse + n.right_m_per_pulse);
   const Pose2D& p = odometry_.pose();
@@ -333,18 +303,15 @@ WheelDuties UmbmarkRun::update(double now_s) {
   }
 
   auto follow = [&](int side, double measured, double target) {
-    const double error = 1.0 - measured / target;
-    duty_mag_[side] =
-        std::clamp(duty_mag_[side] + options_.rate_gain_per_s * dt * error, 0.0, options_.max_duty);
+    duty_mag_[side] = followRate(duty_mag_[side], measured, target, options_.rate_gain_per_s, dt,
+                                 options_.max_duty);
   };
   auto checkStall = [&](int side) {
-    const double last =
-        std::max(side == 0 ? last_change_left_s_ : last_change_right_s_, motion_start_s_);
-    if (now_s - last > options_.stall_s) {
+    const std::string stall =
+        stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
+    if (!stall.empty()) {
       fail(std::string(name(phase_)) + " run " + std::to_string(runInDirection()) + ", leg " +
-           std::to_string(leg_ + 1) + ": the " + (side == 0 ? "left" : "right") +
-           " wheel has not moved for " + formatNumber(now_s - last, 3) + " s at duty " +
-           formatNumber(duty_mag_[side], 3) + " (the robot stalled: blocked, or a motor fault)");
+           std::to_string(leg_ + 1) + ": " + stall);
     }
   };
 

@@ -259,9 +259,7 @@ void RunRecorder::addStatus(const StatusUpdate& status) {
   switch (status.state) {
     case StatusUpdate::State::kDone: {
       s->state = StageState::kDone;
-      // "wrote <file>", or "kept <file>" when a resumed run kept the stage's earlier result.
-      for (const std::string prefix : {"wrote ", "kept "})
-        if (status.text.rfind(prefix, 0) == 0) s->file = status.text.substr(prefix.size());
+      s->file = status.file;
       break;
     }
     case StatusUpdate::State::kFailed:

@@ -12,8 +12,6 @@ namespace autocal {
 namespace wheels {
 
 namespace {
-/// As WheelRun: a still counts as settled after this long whatever the encoders say [s].
-constexpr double kMaxSettleS = 2.0;
 /// A duty this small is no command [1].
 constexpr double kZeroDuty = 1e-6;
 }  // namespace
@@ -41,8 +39,8 @@ void WheelReplay::addCommand(double stamp_s, const WheelDuties& duties) {
   Segment s;
   s.kind = kind;
   s.start_s = stamp_s;
-  s.start_left = encoders_.left;
-  s.start_right = encoders_.right;
+  s.start_left = encoders_.rawLeft();
+  s.start_right = encoders_.rawRight();
   s.drive.duties = {std::abs(duties.left), std::abs(duties.right)};
   s.drive.start_s = stamp_s;
   segments_.push_back(std::move(s));
@@ -52,10 +50,10 @@ void WheelReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
                               int ticks_per_revolution) {
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution must be > 0 ticks per revolution");
-  if (!encoders_.valid) {
+  if (!encoders_.valid()) {
     for (Segment& s : segments_) s.start_left = left_ticks, s.start_right = right_ticks;
   }
-  if (!encoders_.add(stamp_s, left_ticks, right_ticks)) return;
+  if (!encoders_.add(stamp_s, left_ticks, right_ticks).accepted) return;
   ticks_per_rev_ = ticks_per_revolution;
   Segment& s = segments_.back();
   if (s.kind == Kind::kForward || s.kind == Kind::kBack)
@@ -73,10 +71,9 @@ bool WheelReplay::stillMeasured(const Segment& s) const {
 
 bool WheelReplay::wantsFrame(double stamp_s) const {
   const Segment& s = segments_.back();
-  if (s.kind != Kind::kStill || !encoders_.valid || stillMeasured(s)) return false;
-  if (stamp_s < s.start_s + options_.settle_s) return false;
-  if (stamp_s >= s.start_s + kMaxSettleS) return true;
-  return encoders_.stillSince(s.start_s, options_.still_s);
+  if (s.kind != Kind::kStill || !encoders_.valid() || stillMeasured(s)) return false;
+  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(s.start_s, stamp_s,
+                                                                              encoders_);
 }
 
 void WheelReplay::detectInto(Segment& s, const cv::Mat& image) {
@@ -133,7 +130,7 @@ WheelReplayResult WheelReplay::result() const {
       return left ? segments_[i + 2].start_left : segments_[i + 2].start_right;
     if (i + 1 < n && segments_[i + 1].kind != Kind::kStill)
       return left ? segments_[i + 1].start_left : segments_[i + 1].start_right;
-    return left ? encoders_.left : encoders_.right;
+    return left ? encoders_.rawLeft() : encoders_.rawRight();
   };
   bool last_forward_counted = false;
   for (size_t i = 0; i < n; ++i) {

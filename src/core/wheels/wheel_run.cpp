@@ -15,7 +15,6 @@ namespace {
 /// Silence counts only over this many updates in a row without a message: a node that was not
 /// scheduled for a while is not mistaken for a dead sensor.
 constexpr int kSilentUpdates = 10;
-constexpr double kMaxSettleS = 2.0;
 /// The largest share of a forward drive by which a drive back is lengthened or shortened to make
 /// up for where the earlier cycles left the robot (WheelRun::onMeasured).
 constexpr double kMaxCreepShare = 0.25;
@@ -129,12 +128,7 @@ void WheelRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
     throw InputError("encoder resolution must be > 0 ticks per revolution");
   (void)now_s;
   updates_without_encoders_ = 0;
-  if (have_encoders_ && stamp_s < encoder_stamp_s_) return;
-  if (!have_encoders_ || left_ticks != left_ || right_ticks != right_) last_change_s_ = stamp_s;
-  have_encoders_ = true;
-  encoder_stamp_s_ = stamp_s;
-  left_ = left_ticks;
-  right_ = right_ticks;
+  if (!encoders_.add(stamp_s, left_ticks, right_ticks).accepted) return;
   ticks_per_rev_ = ticks_per_revolution;
   if (motion_ == Motion::kDrive)
     drive_.samples.push_back({stamp_s, double(left_ticks), double(right_ticks)});
@@ -236,7 +230,7 @@ void WheelRun::startPulse(double turn_rad) {
   const double duty = std::min(0.9, offset + options_.turn_duty_margin + turn_duty_boost_);
   duties_ = {0.0, pulse_dir_ * duty};
   motion_ = Motion::kPulse;
-  pulse_start_right_ = right_;
+  pulse_start_right_ = encoders_.rawRight();
   const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
   pulse_ticks_ =
       std::max(1, static_cast<int>(std::lround(wheel_rad * ticks_per_rev_ / (2 * M_PI))));
@@ -255,8 +249,8 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   drive_ = DriveRecord();
   drive_.duties = d;
   drive_.start_s = now_s;
-  drive_start_left_ = left_;
-  drive_start_right_ = right_;
+  drive_start_left_ = encoders_.rawLeft();
+  drive_start_right_ = encoders_.rawRight();
   startMotionClock(driveSeconds(speed_mps));
 }
 
@@ -271,7 +265,8 @@ void WheelRun::startMotionClock(double length_s) {
 
 double WheelRun::driveDistanceM() const {
   // Signed distance of the last drive by the encoders (both wheels' mean, nominal radius).
-  const double ticks = 0.5 * ((left_ - drive_start_left_) + (right_ - drive_start_right_));
+  const double ticks = 0.5 * ((encoders_.rawLeft() - drive_start_left_) +
+                              (encoders_.rawRight() - drive_start_right_));
   return ticks * 2 * M_PI / ticks_per_rev_ * options_.kinematics.radius;
 }
 
@@ -283,9 +278,8 @@ void WheelRun::stopMotion(double now_s) {
 }
 
 bool WheelRun::settled(double now_s) const {
-  if (now_s < stop_s_ + options_.settle_s) return false;
-  if (now_s >= stop_s_ + kMaxSettleS) return true;
-  return encoder_stamp_s_ >= stop_s_ && encoder_stamp_s_ - last_change_s_ >= options_.still_s;
+  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
+                                                                              encoders_);
 }
 
 void WheelRun::recordDriveForFit() {
@@ -403,8 +397,8 @@ void WheelRun::onMeasured(double now_s) {
         drive_ = DriveRecord();
         drive_.duties = d;
         drive_.start_s = now_s;
-        drive_start_left_ = left_;
-        drive_start_right_ = right_;
+        drive_start_left_ = encoders_.rawLeft();
+        drive_start_right_ = encoders_.rawRight();
         // As long as the forward drive was commanded, at the speed ratio: the same distance.
         // Beyond the paper: lengthened or shortened by the share of the forward drive's distance
         // the earlier cycles left the robot ahead of (or behind) where the iteration started, by
@@ -434,7 +428,7 @@ void WheelRun::startLeave(double now_s) {
   startDrive(now_s, +1, options_.leave_speed_mps);
   motion_len_s_ = std::numeric_limits<double>::infinity();
   purpose_ = Purpose::kLeaveDrive;
-  leave_start_left_ = left_;
+  leave_start_left_ = encoders_.rawLeft();
   last_tag_seen_s_ = now_s;
   frames_without_tags_ = 0;
   leave_clear_ = false;
@@ -449,10 +443,10 @@ void WheelRun::onSettled(double now_s) {
   switch (purpose_) {
     case Purpose::kAlign: {
       // The step just made: pivoting on the left wheel, the right wheel's turn R·φ_r/L.
-      const double phi = (right_ - pulse_start_right_) * 2 * M_PI / ticks_per_rev_;
+      const double phi = (encoders_.rawRight() - pulse_start_right_) * 2 * M_PI / ticks_per_rev_;
       const double turned =
           std::abs(options_.kinematics.radius * phi / options_.kinematics.baseline);
-      if (right_ == pulse_start_right_) {
+      if (encoders_.rawRight() == pulse_start_right_) {
         turn_duty_boost_ += 0.02;  // the wheel did not move: the guessed deadband was too low
       }
       search_turned_rad_ += turned;
@@ -462,7 +456,7 @@ void WheelRun::onSettled(double now_s) {
     case Purpose::kAfterForward:
       drive_forward_m_ = driveDistanceM();
       creep_m_ += drive_forward_m_;
-      drive_left_angle_rad_ = (left_ - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
+      drive_left_angle_rad_ = (encoders_.rawLeft() - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
       forward_s_ = drive_.end_s - drive_.start_s;
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
@@ -494,11 +488,11 @@ WheelDuties WheelRun::update(double now_s) {
       fail("no camera frame within camera_timeout_s " + formatNumber(options_.camera_timeout_s, 3) +
            " s");
     }
-    if (!have_encoders_ && now_s - start_s_ > options_.encoder_timeout_s) {
+    if (!encoders_.valid() && now_s - start_s_ > options_.encoder_timeout_s) {
       fail("no encoder reading within encoder_timeout_s " +
            formatNumber(options_.encoder_timeout_s, 3) + " s");
     }
-    if (!have_frame_ || !have_encoders_) return {};
+    if (!have_frame_ || !encoders_.valid()) return {};
     startAlign(WheelRunStage::kIterate);
   }
   ++updates_without_frames_;
@@ -510,7 +504,7 @@ WheelDuties WheelRun::update(double now_s) {
          formatNumber(options_.camera_timeout_s, 3) + " s");
   }
   if (updates_without_encoders_ > kSilentUpdates &&
-      now_s - encoder_stamp_s_ > options_.encoder_timeout_s) {
+      now_s - encoders_.stampS() > options_.encoder_timeout_s) {
     fail("the encoders went silent for more than encoder_timeout_s " +
          formatNumber(options_.encoder_timeout_s, 3) + " s");
   }
@@ -525,19 +519,21 @@ WheelDuties WheelRun::update(double now_s) {
   }
   switch (motion_) {
     case Motion::kPulse:
-      if (now_s >= motion_end_s_ || std::abs(right_ - pulse_start_right_) >= pulse_ticks_)
+      if (now_s >= motion_end_s_ ||
+          std::abs(encoders_.rawRight() - pulse_start_right_) >= pulse_ticks_)
         stopMotion(now_s);
       break;
     case Motion::kDrive:
       if (stage_ == WheelRunStage::kLeave) {
         const double r = options_.kinematics.radius * 2 * M_PI / ticks_per_rev_;
-        const double driven = (left_ - leave_start_left_) * r;
+        const double driven = (encoders_.rawLeft() - leave_start_left_) * r;
         if (!leave_clear_ && now_s - last_tag_seen_s_ >= options_.leave_clear_s &&
             frames_without_tags_ >= options_.leave_clear_frames) {
           leave_clear_ = true;
-          leave_clear_left_ = left_;
+          leave_clear_left_ = encoders_.rawLeft();
         }
-        if (leave_clear_ && (left_ - leave_clear_left_) * r >= options_.exit_extra_m) {
+        if (leave_clear_ &&
+            (encoders_.rawLeft() - leave_clear_left_) * r >= options_.exit_extra_m) {
           stopMotion(now_s);
         } else if (!leave_clear_ && driven > options_.max_leave_m) {
           fail("still seeing tags after driving " + formatNumber(driven, 3) +

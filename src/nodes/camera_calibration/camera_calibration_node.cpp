@@ -132,7 +132,10 @@ ros_layer::StatusPublisher::Figures resultFigures(const CalibrationResult& resul
 }  // namespace
 
 CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+    : nh_(nh),
+      pnh_(pnh),
+      options_(readOptions(nh, pnh)),
+      status_throttle_(options_.status_rate_hz) {
   camera_ = loadCameraCalibrationConfig(options_.camera_config);
   if (!options_.board_inner_corners.empty())
     camera_.board.inner_corners = parseBoardSize(options_.board_inner_corners);
@@ -292,13 +295,8 @@ std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stage
 
 void CameraCalibrationNode::publishStatus(bool force) {
   const std::string phase = std::string("camera/") + name(run_->stage());
-  const ros::Time now = ros::Time::now();
-  if (!force && phase == last_phase_ &&
-      (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
-    return;
-  if (phase != last_phase_) ROS_INFO("camera_calibration_node: %s", phase.c_str());
-  last_phase_ = phase;
-  last_status_ = now;
+  if (!status_throttle_.due(phase, ros::Time::now().toSec(), force)) return;
+  if (status_throttle_.keyChanged()) ROS_INFO("camera_calibration_node: %s", phase.c_str());
   const Coverage c = run_->collector().coverage();
   status_.running(phase, run_->progress(), run_->describe(),
                   {{"views", c.views},
@@ -380,7 +378,7 @@ void CameraCalibrationNode::runPassive() {
   figures.insert(figures.end(), {{"stops", static_cast<double>(replay_->stops())},
                                  {"sweep_s", replay_->elapsedS()},
                                  {"frames_dropped", static_cast<double>(frames_->dropped())}});
-  status_.done("camera/write", "wrote " + path, figures);
+  status_.wrote("camera/write", path, figures);
 }
 
 std::string CameraCalibrationNode::write(const CalibrationResult& result,
@@ -427,7 +425,7 @@ void CameraCalibrationNode::finish() {
                                  {"min_duty_left_backward", d.left_backward},
                                  {"min_duty_right_forward", d.right_forward},
                                  {"min_duty_right_backward", d.right_backward}});
-  status_.done("camera/write", "wrote " + path, figures);
+  status_.wrote("camera/write", path, figures);
 }
 
 }  // namespace camera

@@ -30,6 +30,7 @@
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_replay.h"
 #include "autocal/camera/sweep_run.h"
+#include "autocal/status_throttle.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
 #include "autocal_ros/sensor_inputs.h"
@@ -113,8 +114,7 @@ class CameraCalibrationNode {
   sensor_msgs::CameraInfo info_;
   ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
   std::exception_ptr error_;
-  ros::Time last_status_;
-  std::string last_phase_;
+  StatusThrottle status_throttle_;
 };
 
 }  // namespace camera

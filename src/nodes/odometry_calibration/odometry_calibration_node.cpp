@@ -120,7 +120,10 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
 }  // namespace
 
 OdometryCalibrationNode::OdometryCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+    : nh_(nh),
+      pnh_(pnh),
+      options_(readOptions(nh, pnh)),
+      status_throttle_(options_.status_rate_hz) {
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_.running("odometry/wait", 0, "waiting for the encoders and the range sensor");
 }
@@ -161,14 +164,11 @@ void OdometryCalibrationNode::publishStatus(bool force) {
   const std::string key = phase + "/" + std::to_string(run_->round()) + "/" +
                           std::to_string(run_->straightRun()) + "/" +
                           std::to_string(run_->needsStraightLength());
-  const ros::Time now = ros::Time::now();
   // Every change of experiment, round, straight run or waiting is published at once (a helper
   // or a person acts on it); the rest at status_rate_hz.
-  if (!force && key == last_key_ && (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
-    return;
-  if (key != last_key_) ROS_INFO("odometry_calibration_node: %s", run_->describe().c_str());
-  last_key_ = key;
-  last_status_ = now;
+  if (!status_throttle_.due(key, ros::Time::now().toSec(), force)) return;
+  if (status_throttle_.keyChanged())
+    ROS_INFO("odometry_calibration_node: %s", run_->describe().c_str());
   status_.running(phase, run_->progress(), run_->describe(),
                   {{"round", static_cast<double>(run_->round())},
                    {"pulses_per_round", run_->pulsesPerRound()},
@@ -340,14 +340,11 @@ void OdometryCalibrationNode::publishUmbmarkStatus(bool force) {
                           std::to_string(u.leg()) + "/" + std::to_string(u.needsReturnError()) +
                           "/" + std::to_string(u.needsAllReturnErrors()) + "/" +
                           std::to_string(run_index);
-  const ros::Time now = ros::Time::now();
   // Every change of square, leg or waiting is published at once (a helper or a person acts on
   // it); the rest at status_rate_hz.
-  if (!force && key == last_key_ && (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
-    return;
-  if (key != last_key_) ROS_INFO("odometry_calibration_node: %s", u.describe().c_str());
-  last_key_ = key;
-  last_status_ = now;
+  if (!status_throttle_.due(key, ros::Time::now().toSec(), force)) return;
+  if (status_throttle_.keyChanged())
+    ROS_INFO("odometry_calibration_node: %s", u.describe().c_str());
   status_.running(phase, u.progress(), u.describe(),
                   {{"run", static_cast<double>(u.runInDirection())},
                    {"leg", static_cast<double>(u.leg())},
@@ -376,16 +373,16 @@ void OdometryCalibrationNode::finishUmbmark() {
       path.c_str(), calibration.expressions.c_str(), calibration.Ed, calibration.Eb,
       calibration.wheelbase_m, calibration.left_pulse_factor, calibration.right_pulse_factor,
       1000 * r.E_max_syst_m, umbmark_run_->elapsedS());
-  status_.done("odometry/write", "wrote " + path,
-               {{"Ed", calibration.Ed},
-                {"Eb", calibration.Eb},
-                {"wheelbase_m", calibration.wheelbase_m},
-                {"left_pulse_factor", calibration.left_pulse_factor},
-                {"right_pulse_factor", calibration.right_pulse_factor},
-                {"E_max_syst_m", r.E_max_syst_m},
-                {"runs_cw", static_cast<double>(r.runs_cw)},
-                {"runs_ccw", static_cast<double>(r.runs_ccw)},
-                {"elapsed_s", umbmark_run_->elapsedS()}});
+  status_.wrote("odometry/write", path,
+                {{"Ed", calibration.Ed},
+                 {"Eb", calibration.Eb},
+                 {"wheelbase_m", calibration.wheelbase_m},
+                 {"left_pulse_factor", calibration.left_pulse_factor},
+                 {"right_pulse_factor", calibration.right_pulse_factor},
+                 {"E_max_syst_m", r.E_max_syst_m},
+                 {"runs_cw", static_cast<double>(r.runs_cw)},
+                 {"runs_ccw", static_cast<double>(r.runs_ccw)},
+                 {"elapsed_s", umbmark_run_->elapsedS()}});
 }
 
 void OdometryCalibrationNode::finish() {
@@ -402,17 +399,17 @@ void OdometryCalibrationNode::finish() {
   double spin_ppr = 0;
   for (const auto& t : run_->turns())
     if (t.experiment == UahExperiment::kSpin) spin_ppr = t.detection.pulses_per_round;
-  status_.done("odometry/write", "wrote " + path,
-               {{"Ed", calibration.Ed},
-                {"Eb", calibration.Eb},
-                {"wheelbase_m", calibration.wheelbase_m},
-                {"left_m_per_pulse", calibration.left_m_per_pulse},
-                {"right_m_per_pulse", calibration.right_m_per_pulse},
-                {"right_pulses_per_round_left_stopped", r.ed.right_pulses_per_round},
-                {"left_pulses_per_round_right_stopped", r.ed.left_pulses_per_round},
-                {"spin_pulses_per_round", spin_ppr},
-                {"straight_runs_accepted", static_cast<double>(r.straight.accepted_runs.size())},
-                {"elapsed_s", run_->elapsedS()}});
+  status_.wrote("odometry/write", path,
+                {{"Ed", calibration.Ed},
+                 {"Eb", calibration.Eb},
+                 {"wheelbase_m", calibration.wheelbase_m},
+                 {"left_m_per_pulse", calibration.left_m_per_pulse},
+                 {"right_m_per_pulse", calibration.right_m_per_pulse},
+                 {"right_pulses_per_round_left_stopped", r.ed.right_pulses_per_round},
+                 {"left_pulses_per_round_right_stopped", r.ed.left_pulses_per_round},
+                 {"spin_pulses_per_round", spin_ppr},
+                 {"straight_runs_accepted", static_cast<double>(r.straight.accepted_runs.size())},
+                 {"elapsed_s", run_->elapsedS()}});
 }
 
 }  // namespace odometry

@@ -8,10 +8,10 @@
 // counter-clockwise on its own odometry; after each square it waits for that square's return
 // error ε = actual − computed [m] on ~return_error (geometry_msgs/Point, x and y in the square's
 // start frame) — measured by a person on a robot, or in the simulator by umbmark_error_helper
-// (src/nodes/sim_tools/, a validation tool) — or, with ~errors_file set, it drives all squares (pausing ~run_pause_s after
-// each for the person to mark where it stopped) and then waits for that YAML file (the `umbmark`
-// command's format). Status phases odometry/umbmark_cw, odometry/umbmark_ccw, figures run, leg,
-// awaiting_error, run_start_s, computed_x_m, computed_y_m.
+// (src/nodes/sim_tools/, a validation tool) — or, with ~errors_file set, it drives all squares
+// (pausing ~run_pause_s after each for the person to mark where it stopped) and then waits for that
+// YAML file (the `umbmark` command's format). Status phases odometry/umbmark_cw,
+// odometry/umbmark_ccw, figures run, leg, awaiting_error, run_start_s, computed_x_m, computed_y_m.
 //
 // The one measured input: each straight run's true start-to-end length, received on
 // ~straight_length (std_msgs/Float64, metres) while the status says the run waits for it — typed
@@ -35,6 +35,7 @@
 
 #include "autocal/odometry/uah_run.h"
 #include "autocal/odometry/umbmark_run.h"
+#include "autocal/status_throttle.h"
 #include "autocal_ros/node_runtime.h"
 #include "autocal_ros/sensor_inputs.h"
 
@@ -102,8 +103,7 @@ class OdometryCalibrationNode {
   ros::Subscriber range_sub_, length_sub_;
   std::exception_ptr error_;
   bool range_limits_set_ = false;
-  ros::Time last_status_;
-  std::string last_key_;
+  StatusThrottle status_throttle_;
 };
 
 }  // namespace odometry

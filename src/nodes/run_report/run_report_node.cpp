@@ -108,6 +108,7 @@ void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus 
   u.progress = msg.progress;
   u.text = msg.text;
   u.failure_reason = msg.failure_reason;
+  u.file = msg.file;
   for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
     u.figures.emplace_back(msg.figure_names[i], msg.figure_values[i]);
   recorder_->addStatus(u);

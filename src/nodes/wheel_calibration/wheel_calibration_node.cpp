@@ -30,8 +30,8 @@ void WheelCalibrationNodeOptions::validate() const {
                         "must be > 0");
   ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
                         "must be < 0.9 (negative: automatic)");
-  ros_layer::checkParam(std::isfinite(deadband_guess_resolution) && deadband_guess_resolution >= 0 &&
-                            deadband_guess_resolution < 0.5,
+  ros_layer::checkParam(std::isfinite(deadband_guess_resolution) &&
+                            deadband_guess_resolution >= 0 && deadband_guess_resolution < 0.5,
                         "deadband_guess_resolution", "must be in [0, 0.5) (0: each its own)");
   ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
                         "must not be empty");
@@ -100,18 +100,21 @@ double figure(const autocal::CalibrationStatus& msg, const std::string& name) {
   return -1;
 }
 
-/// The file a stage's DONE names: "wrote <file>", or "kept <file>" from a resumed run.
+/// The file the camera stage's DONE carries (written, or kept by a resumed run).
 std::string fileOfDone(const autocal::CalibrationStatus& done) {
-  if (!(done.text.rfind("wrote ", 0) == 0 || done.text.rfind("kept ", 0) == 0))
+  if (done.file.empty())
     throw CalibrationError("the camera stage's DONE names no file (\"" + done.text +
                            "\"), and no ~intrinsics_file");
-  return done.text.substr(done.text.find(' ') + 1);
+  return done.file;
 }
 
 }  // namespace
 
 WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+    : nh_(nh),
+      pnh_(pnh),
+      options_(readOptions(nh, pnh)),
+      status_throttle_(options_.status_rate_hz) {
   kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
   before_ = readKinematicsFileOrDefaults(kinematics_path_);  // a malformed file is an error
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
@@ -161,17 +164,12 @@ void WheelCalibrationNode::publishDetections(const ros::Time& stamp) {
 
 void WheelCalibrationNode::publishStatus(bool force) {
   const std::string phase = std::string("wheels/") + name(run_->stage());
-  const ros::Time now = ros::Time::now();
-  if (!force && phase == last_phase_ &&
-      (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
-    return;
+  if (!status_throttle_.due(phase, ros::Time::now().toSec(), force)) return;
   const auto& hist = run_->estimator().history();
-  if (phase != last_phase_ || hist.size() != last_drives_) {
+  if (status_throttle_.keyChanged() || hist.size() != last_drives_) {
     ROS_INFO("wheel_calibration_node: %s: %s", phase.c_str(), run_->describe().c_str());
     last_drives_ = hist.size();
   }
-  last_phase_ = phase;
-  last_status_ = now;
   const auto& h = run_->estimator().history();
   status_.running(
       phase, run_->progress(), run_->describe(),
@@ -374,15 +372,15 @@ void WheelCalibrationNode::runPassive() {
       "over %d drives, %d/%d stills measured",
       kinematics_path_.c_str(), k.trim, k.deadband_left, k.deadband_right, result.iterations.size(),
       result.drives, result.measured, result.stills);
-  status_.done("wheels/write", "wrote " + kinematics_path_,
-               {{"trim", k.trim},
-                {"trim_before", before_.trim},
-                {"k", result.iterations.back().ratio_after},
-                {"deadband_left", k.deadband_left},
-                {"deadband_right", k.deadband_right},
-                {"drives", static_cast<double>(result.iterations.size())},
-                {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
-                {"frames_dropped", static_cast<double>(frames_->dropped())}});
+  status_.wrote("wheels/write", kinematics_path_,
+                {{"trim", k.trim},
+                 {"trim_before", before_.trim},
+                 {"k", result.iterations.back().ratio_after},
+                 {"deadband_left", k.deadband_left},
+                 {"deadband_right", k.deadband_right},
+                 {"drives", static_cast<double>(result.iterations.size())},
+                 {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
+                 {"frames_dropped", static_cast<double>(frames_->dropped())}});
 }
 
 void WheelCalibrationNode::finish() {
@@ -401,16 +399,16 @@ void WheelCalibrationNode::finish() {
       "drives, %.1f s",
       kinematics_path_.c_str(), result.trim, before_.trim, run_->estimator().ratio(),
       result.deadband_left, result.deadband_right, h.size(), run_->elapsedS());
-  status_.done("wheels/write", "wrote " + kinematics_path_,
-               {{"trim", result.trim},
-                {"trim_before", before_.trim},
-                {"k", run_->estimator().ratio()},
-                {"deadband_left", result.deadband_left},
-                {"deadband_right", result.deadband_right},
-                {"drives", static_cast<double>(h.size())},
-                {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
-                {"frames_dropped", static_cast<double>(frames_->dropped())},
-                {"elapsed_s", run_->elapsedS()}});
+  status_.wrote("wheels/write", kinematics_path_,
+                {{"trim", result.trim},
+                 {"trim_before", before_.trim},
+                 {"k", run_->estimator().ratio()},
+                 {"deadband_left", result.deadband_left},
+                 {"deadband_right", result.deadband_right},
+                 {"drives", static_cast<double>(h.size())},
+                 {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
+                 {"frames_dropped", static_cast<double>(frames_->dropped())},
+                 {"elapsed_s", run_->elapsedS()}});
 }
 
 }  // namespace wheels

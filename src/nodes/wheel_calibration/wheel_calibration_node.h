@@ -26,6 +26,7 @@
 #include <memory>
 #include <string>
 
+#include "autocal/status_throttle.h"
 #include "autocal/wheels/wheel_replay.h"
 #include "autocal/wheels/wheel_run.h"
 #include "autocal_ros/msgs.h"
@@ -105,8 +106,7 @@ class WheelCalibrationNode {
   double camera_min_duty_left_ = -1, camera_min_duty_right_ = -1;
   ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
   std::exception_ptr error_;
-  ros::Time last_status_;
-  std::string last_phase_;
+  StatusThrottle status_throttle_;
   size_t last_drives_ = 0;
   KinematicsParams before_;
   std::string kinematics_path_;

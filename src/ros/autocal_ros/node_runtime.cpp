@@ -32,7 +32,7 @@ StatusPublisher::StatusPublisher(ros::NodeHandle nh, const std::string& topic)
 
 void StatusPublisher::publish(uint8_t state, const std::string& phase, double progress,
                               const std::string& text, const std::string& failure_reason,
-                              const Figures& figures) {
+                              const Figures& figures, const std::string& file) {
   if (!pub_) return;
   CalibrationStatus s;
   s.header.stamp = ros::Time::now();
@@ -41,6 +41,7 @@ void StatusPublisher::publish(uint8_t state, const std::string& phase, double pr
   s.progress = static_cast<float>(progress);
   s.text = text;
   s.failure_reason = failure_reason;
+  s.file = file;
   for (const auto& f : figures) {
     s.figure_names.push_back(f.first);
     s.figure_values.push_back(f.second);
@@ -54,8 +55,13 @@ void StatusPublisher::running(const std::string& phase, double progress, const s
 }
 
 void StatusPublisher::done(const std::string& phase, const std::string& text,
-                           const Figures& figures) {
-  publish(CalibrationStatus::STATE_DONE, phase, 1.0, text, "", figures);
+                           const Figures& figures, const std::string& file) {
+  publish(CalibrationStatus::STATE_DONE, phase, 1.0, text, "", figures, file);
+}
+
+void StatusPublisher::wrote(const std::string& phase, const std::string& file,
+                            const Figures& figures) {
+  done(phase, "wrote " + file, figures, file);
 }
 
 void StatusPublisher::failed(const std::string& phase, const std::string& reason,
@@ -189,7 +195,7 @@ bool resumeStage(StatusPublisher& status, const std::string& calibration_root,
   }
   ROS_INFO("%s: ~resume: the last run's %s stage succeeded (%s): kept, not run again",
            ros::this_node::getName().c_str(), stage.c_str(), summary.c_str());
-  status.done(stage + "/resumed", "kept " + p.file, p.figures);
+  status.done(stage + "/resumed", "kept " + p.file, p.figures, p.file);
   // The DONE is latched, but only while this node lives: stay until the nodes started with it
   // (the next stage, run_report_node) have had time to connect and receive it.
   const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(3.0);

@@ -29,13 +29,18 @@ class StatusPublisher {
   /// `progress` 0..1, negative when unknown.
   void running(const std::string& phase, double progress, const std::string& text,
                const Figures& figures = {});
-  void done(const std::string& phase, const std::string& text, const Figures& figures = {});
+  /// DONE; `file`: the file the stage wrote or kept, for the next stage and the report.
+  void done(const std::string& phase, const std::string& text, const Figures& figures = {},
+            const std::string& file = "");
+  /// DONE with the file the stage wrote: text "wrote <file>", and the file in its own field.
+  void wrote(const std::string& phase, const std::string& file, const Figures& figures = {});
   void failed(const std::string& phase, const std::string& reason, const Figures& figures = {});
   const std::string& topic() const { return topic_; }
 
  private:
   void publish(uint8_t state, const std::string& phase, double progress, const std::string& text,
-               const std::string& failure_reason, const Figures& figures);
+               const std::string& failure_reason, const Figures& figures,
+               const std::string& file = "");
   ros::Publisher pub_;
   std::string topic_;
 };

@@ -1,0 +1,120 @@
+// The parts the driving stages share: EncoderTracker (sensors.h), SettleRule, MotionClock,
+// followRate, stallOf (motion.h) and StatusThrottle.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <limits>
+
+#include "autocal/motion.h"
+#include "autocal/sensors.h"
+#include "autocal/status_throttle.h"
+
+namespace autocal {
+namespace {
+
+TEST(EncoderTracker, UnwrapsThirtyTwoBitCountsAndKeepsTheRawReading) {
+  EncoderTracker e;
+  const std::int32_t top = std::numeric_limits<std::int32_t>::max();
+  EXPECT_TRUE(e.add(1.0, top - 2, 10).first);
+  const EncoderTracker::Step s = e.add(1.1, top, 10);
+  EXPECT_DOUBLE_EQ(s.left_ticks, 2);
+  const EncoderTracker::Step wrapped = e.add(1.2, std::numeric_limits<std::int32_t>::min() + 3, 7);
+  EXPECT_DOUBLE_EQ(wrapped.left_ticks, 4);  // top -> top + 4, wrapped around
+  EXPECT_DOUBLE_EQ(wrapped.right_ticks, -3);
+  EXPECT_DOUBLE_EQ(e.left(), 6);
+  EXPECT_DOUBLE_EQ(e.right(), -3);
+  EXPECT_EQ(e.rawLeft(), std::numeric_limits<std::int32_t>::min() + 3);
+  EXPECT_EQ(e.rawRight(), 7);
+  EXPECT_DOUBLE_EQ(e.stampS(), 1.2);
+}
+
+TEST(EncoderTracker, IgnoresOlderReadingsAndTracksEachWheelsLastChange) {
+  EncoderTracker e;
+  EXPECT_FALSE(e.valid());
+  e.add(1.0, 0, 0);
+  e.add(2.0, 5, 0);
+  EXPECT_FALSE(e.add(1.5, 100, 100).accepted);
+  EXPECT_EQ(e.rawLeft(), 5);
+  e.add(3.0, 5, 1);
+  EXPECT_DOUBLE_EQ(e.lastChangeS(0), 2.0);
+  EXPECT_DOUBLE_EQ(e.lastChangeS(1), 3.0);
+  EXPECT_DOUBLE_EQ(e.lastChangeS(), 3.0);
+  e.add(4.0, 5, 1);  // same counts, same stamp accepted
+  EXPECT_DOUBLE_EQ(e.lastChangeS(), 3.0);
+  EXPECT_TRUE(e.stillSince(3.0, 1.0));
+  EXPECT_FALSE(e.stillSince(3.0, 1.1));
+  EXPECT_FALSE(e.stillSince(4.5, 0.0));  // no reading since 4.5
+}
+
+TEST(EncoderTracker, JumpIsNamedBeyondTheRateOverTheLongerOfTheIntervalAndTheWindow) {
+  EncoderTracker e;
+  e.add(0.0, 0, 0);
+  // 1000 pulses/s over max(0.01, 0.1) s + 5 = 105 ticks allowed.
+  EXPECT_TRUE(EncoderTracker::jump(e.add(0.01, 105, -105), 1000, 0.1).empty());
+  const std::string j = EncoderTracker::jump(e.add(0.02, 105 + 106, -105), 1000, 0.1);
+  EXPECT_NE(j.find("encoder jump: left 106, right 0 ticks in 0.01 s"), std::string::npos) << j;
+}
+
+TEST(SettleRule, SettlesOnStillEncodersAfterTheMinimumOrAtTheMaximum) {
+  const SettleRule rule{0.3, 0.1, 2.0};
+  EncoderTracker e;
+  e.add(0.0, 0, 0);
+  e.add(1.0, 10, 10);  // the stop at 1.0: still moving
+  EXPECT_FALSE(rule.settled(1.0, 1.1, e));
+  e.add(1.15, 12, 12);
+  e.add(1.25, 12, 12);
+  EXPECT_FALSE(rule.settled(1.0, 1.25, e));  // still for 0.1 s, but before settle_s
+  e.add(1.3, 12, 12);
+  EXPECT_TRUE(rule.settled(1.0, 1.3, e));
+  e.add(1.4, 13, 12);  // creeps on
+  EXPECT_FALSE(rule.settled(1.0, 2.9, e));
+  EXPECT_TRUE(rule.settled(1.0, 3.0, e));  // max_settle_s whatever the encoders say
+}
+
+TEST(MotionClock, StartsAtTheFirstUpdateAfterAReset) {
+  MotionClock c;
+  EXPECT_TRUE(c.started());
+  c.reset(5.0);
+  EXPECT_FALSE(c.started());
+  EXPECT_DOUBLE_EQ(c.startS(), 5.0);
+  EXPECT_TRUE(c.start(5.5));
+  EXPECT_FALSE(c.start(6.0));
+  EXPECT_DOUBLE_EQ(c.elapsedS(6.0), 0.5);
+}
+
+TEST(FollowRate, RaisesASlowWheelsDutyLowersAFastOnesWithinItsBounds) {
+  EXPECT_DOUBLE_EQ(followRate(0.2, 50, 100, 0.4, 0.5, 1.0), 0.2 + 0.4 * 0.5 * 0.5);
+  EXPECT_DOUBLE_EQ(followRate(0.2, 200, 100, 0.4, 0.5, 1.0), 0.0);
+  EXPECT_DOUBLE_EQ(followRate(0.5, 0, 100, 10, 1, 0.6), 0.6);
+}
+
+TEST(StallOf, CountsFromTheLaterOfTheWheelsLastChangeAndTheMotionsStart) {
+  EncoderTracker e;
+  e.add(0.0, 0, 0);
+  e.add(1.0, 1, 0);
+  MotionClock c;
+  c.reset(0.5);
+  c.start(0.5);
+  EXPECT_TRUE(stallOf(0, e, c, 1.9, 1.0, 0.3).empty());
+  EXPECT_TRUE(stallOf(1, e, c, 1.5, 1.0, 0.3).empty());
+  const std::string s = stallOf(1, e, c, 1.6, 1.0, 0.3);
+  EXPECT_EQ(s,
+            "the right wheel has not moved for 1.1 s at duty 0.3 (the robot stalled: blocked, "
+            "or a motor fault)");
+}
+
+TEST(StatusThrottle, PublishesAKeyChangeAtOnceAndTheRestAtTheRate) {
+  StatusThrottle t(2.0);
+  EXPECT_TRUE(t.due("camera/probe", 0.0));
+  EXPECT_TRUE(t.keyChanged());
+  EXPECT_FALSE(t.due("camera/probe", 0.4));
+  EXPECT_TRUE(t.due("camera/probe", 0.4, true));
+  EXPECT_FALSE(t.keyChanged());
+  EXPECT_TRUE(t.due("camera/sweep", 0.5));
+  EXPECT_TRUE(t.keyChanged());
+  EXPECT_TRUE(t.due("camera/sweep", 1.0));
+  EXPECT_FALSE(t.keyChanged());
+}
+
+}  // namespace
+}  // namespace autocal

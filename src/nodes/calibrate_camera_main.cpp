@@ -29,6 +29,7 @@
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
+#include "autocal/io/image_file.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace fs = std::filesystem;
@@ -123,10 +124,7 @@ void readImages(const std::string& pattern, const FrameSink& sink) {
   if (files.empty()) throw InputError("--images '" + pattern + "': no file matches");
   for (size_t i = 0; i < files.size(); ++i) {
     // Grey: the detection and the calibration use grey only (and it decodes faster).
-    const cv::Mat img = cv::imread(files[i], cv::IMREAD_GRAYSCALE);
-    if (img.empty())
-      throw InputError(files[i] +
-                       ": cannot read or decode the image (missing, unreadable or corrupt)");
+    const cv::Mat img = readImageFile(files[i], cv::IMREAD_GRAYSCALE);
     sink(img, files[i], i, files.size());
   }
 }
@@ -158,7 +156,9 @@ void readBag(const std::string& path, const std::string& topic, const FrameSink&
       std::snprintf(name, sizeof name, "%s@%.3f", topic.c_str(), m.getTime().toSec());
       cv::Mat img;
       if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
-        if (!c->data.empty()) img = cv::imdecode(c->data, cv::IMREAD_COLOR);
+        // A frame cut short decodes with grey rows: refused as undecodable.
+        if (!c->data.empty() && truncatedImage(c->data).empty())
+          img = cv::imdecode(c->data, cv::IMREAD_COLOR);
       } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
         try {
           img = cv_bridge::toCvCopy(r, "bgr8")->image;

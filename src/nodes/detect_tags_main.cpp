@@ -17,6 +17,7 @@
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
 #include "autocal/io/camera_info_file.h"
+#include "autocal/io/image_file.h"
 #include "autocal/markers/detect_tags.h"
 
 using namespace autocal;
@@ -53,9 +54,11 @@ std::vector<ImageTags> detectTagsInBag(const std::string& path, const std::strin
     for (const rosbag::MessageInstance& m : view) {
       ImageTags t;
       cv::Mat image;
+      std::string cut;  // why a compressed frame is cut short
       if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
         t.stamp_s = stampOf(m, c->header.stamp);
-        if (!c->data.empty()) image = cv::imdecode(c->data, cv::IMREAD_GRAYSCALE);
+        cut = truncatedImage(c->data);
+        if (!c->data.empty() && cut.empty()) image = cv::imdecode(c->data, cv::IMREAD_GRAYSCALE);
       } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
         t.stamp_s = stampOf(m, r->header.stamp);
         try {
@@ -69,6 +72,7 @@ std::vector<ImageTags> detectTagsInBag(const std::string& path, const std::strin
       char name[200];
       std::snprintf(name, sizeof name, "%s: %s at stamp %.9f", path.c_str(), topic.c_str(),
                     t.stamp_s);
+      if (!cut.empty()) throw InputError(std::string(name) + ": corrupt image: " + cut);
       if (image.empty()) throw InputError(std::string(name) + ": cannot decode the image");
       t.tags = detectTagsInImage(image, name, detector);
       out.push_back(std::move(t));

@@ -21,6 +21,7 @@
 #include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/uah_replay.h"
+#include "autocal/physical_range.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/msgs.h"
 
@@ -114,6 +115,14 @@ Args parseArgs(int argc, char** argv) {
   if (!(a.wheel_radius_m > 0) || !(a.wheelbase_m > 0)) {
     throw UsageError("--wheel-radius-m and --wheelbase-m must be > 0");
   }
+  // A length in other units than metres is refused before the bag is read.
+  std::vector<std::string> slips = {
+      outOfRange("--wheel-radius-m", a.wheel_radius_m, ranges::kWheelRadius),
+      outOfRange("--wheelbase-m", a.wheelbase_m, ranges::kWheelbase)};
+  for (const double l : a.lengths_m)
+    slips.push_back(outOfRange("--straight-length-m", l, ranges::kStraightRun));
+  for (const std::string& slip : slips)
+    if (!slip.empty()) throw ConfigError(slip);
   return a;
 }
 

@@ -12,6 +12,7 @@
 #include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/umbmark.h"
+#include "autocal/physical_range.h"
 
 namespace {
 
@@ -90,6 +91,10 @@ int run(int argc, char** argv) {
   options.wheelbase_m = args.wheelbase_m;
   options.expressions = umbmarkExpressionsFromName(args.expressions);
   options.validate();
+  // A length in other units than metres is refused before any file is read or written.
+  for (const std::string& slip : {outOfRange("--side", args.side_m, ranges::kUmbmarkSide),
+                                  outOfRange("--wheelbase", args.wheelbase_m, ranges::kWheelbase)})
+    if (!slip.empty()) throw ConfigError(slip);
 
   std::vector<ReturnError> cw, ccw;
   loadUmbmarkErrors(args.errors_file, &cw, &ccw);

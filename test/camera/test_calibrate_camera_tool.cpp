@@ -217,8 +217,27 @@ TEST_F(ToolTest, BadInputIsRefusedAndNeverOverwritesAGoodFile) {
   const ToolRun corrupt =
       runTool("--images '" + path("corrupt/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
   EXPECT_EQ(corrupt.exit_code, kBadInput);
-  EXPECT_NE(corrupt.output.find("zz_broken.jpg: cannot read or decode"), std::string::npos)
+  EXPECT_NE(corrupt.output.find("zz_broken.jpg: corrupt image: no decoder reads it"),
+            std::string::npos)
       << corrupt.output;
+  // A JPEG cut short decodes with a warning and grey rows, and would pass as a view with no
+  // board: named as corrupt instead.
+  {
+    const std::string bytes = autocal::readFile(photos()[0]);
+    std::ofstream(path("corrupt/zz_broken.jpg"), std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 2 / 3));
+  }
+  const ToolRun truncated =
+      runTool("--images '" + path("corrupt/*.jpg") + "'" + board() + " --out " + path("good.yaml"));
+  EXPECT_EQ(truncated.exit_code, kBadInput);
+  EXPECT_NE(truncated.output.find("zz_broken.jpg: corrupt image: truncated JPEG"),
+            std::string::npos)
+      << truncated.output;
+  // A folder instead of a pattern.
+  const ToolRun folder =
+      runTool("--images '" + path("corrupt") + "'" + board() + " --out " + path("good.yaml"));
+  EXPECT_EQ(folder.exit_code, kBadInput);
+  EXPECT_NE(folder.output.find("is a folder, not an image"), std::string::npos) << folder.output;
 
   fs::create_directories(path("mixed"));
   for (const std::string& f : photos())

@@ -25,6 +25,7 @@
 #include <sstream>
 
 #include "autocal/exit_codes.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/scene.h"
@@ -378,8 +379,18 @@ TEST_F(DetectTagsCommand, BadInputGivesTheDocumentedExitCodeAndNoOutput) {
   std::ofstream(path("frames/frame_99.png")) << "not a png";
   r = runDetectTags(images + baseArgs(), dir_);
   EXPECT_EQ(r.exit_code, kBadInput);
-  EXPECT_NE(r.err.find("frame_99.png: cannot read or decode the image"), std::string::npos)
+  EXPECT_NE(r.err.find("frame_99.png: corrupt image: no decoder reads it"), std::string::npos)
       << r.err;
+  EXPECT_EQ(r.out, "");
+  // A PNG cut short (OpenCV would decode it with a warning and grey rows): named as corrupt.
+  {
+    const std::string bytes = autocal::readFile(path("frames/frame_00.png"));
+    std::ofstream(path("frames/frame_99.png"), std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  r = runDetectTags(images + baseArgs(), dir_);
+  EXPECT_EQ(r.exit_code, kBadInput);
+  EXPECT_NE(r.err.find("frame_99.png: corrupt image: truncated PNG"), std::string::npos) << r.err;
   EXPECT_EQ(r.out, "");
   // Bad command lines and bad option values.
   r = runDetectTags(images + "--camera-info " + path("truth.yaml"), dir_);

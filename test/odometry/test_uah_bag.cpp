@@ -290,6 +290,18 @@ TEST(UahBag, BadInputIsRefusedAndNothingWritten) {
   const Command usage = runUah("--bag " + r.bag);
   EXPECT_EQ(usage.code, 64) << usage.err;
   EXPECT_NE(usage.err.find("--veh"), std::string::npos) << usage.err;
+  // A length in millimetres or centimetres is a bad configuration (3), refused before the bag is
+  // read, with the likely unit.
+  const std::vector<BadCase> slips = {
+      {"radius in mm", "--bag " + r.bag + veh + " --wheel-radius-m 31.8", "looks like millimetres"},
+      {"wheelbase in cm", "--bag " + r.bag + veh + " --wheelbase-m 10", "looks like centimetres"},
+  };
+  for (const BadCase& c : slips) {
+    const Command cmd = runUah(c.args + " --out " + out);
+    EXPECT_EQ(cmd.code, 3) << c.label << ": " << cmd.err;
+    EXPECT_NE(cmd.err.find(c.message), std::string::npos) << c.label << ": " << cmd.err;
+    EXPECT_FALSE(fs::exists(out)) << c.label;
+  }
 }
 
 }  // namespace

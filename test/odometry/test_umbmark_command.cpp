@@ -134,6 +134,13 @@ TEST_F(UmbmarkCommand, BadInputFailsClearlyAndKeepsTheGoodFile) {
        "expected a pair", ExitCode::kBadInput},
       {"--errors " + example_ + " --side 0 --wheelbase 0.1", "side_m", ExitCode::kBadConfig},
       {"--errors " + example_ + " --side 1 --wheelbase -0.1", "wheelbase_m", ExitCode::kBadConfig},
+      // A unit slip: the option, the range and the likely unit.
+      {"--errors " + example_ + " --side 1 --wheelbase 102",
+       "--wheelbase 102: the wheelbase of a robot of this size is 0.05-0.5 m; 102 looks like "
+       "millimetres (0.102 m)",
+       ExitCode::kBadConfig},
+      {"--errors " + example_ + " --side 100 --wheelbase 0.1", "100 looks like centimetres (1 m)",
+       ExitCode::kBadConfig},
       {"--errors " + example_ + " --side abc --wheelbase 0.1", "--side: expected a number",
        ExitCode::kUsage},
       {"--errors " + example_ + " --side 1", "--wheelbase", ExitCode::kUsage},

@@ -10,6 +10,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
+#include "autocal/io/image_file.h"
 
 namespace autocal {
 namespace markers {
@@ -252,10 +253,7 @@ std::vector<ImageTags> detectTagsInFiles(const std::vector<std::string>& files,
   std::vector<ImageTags> out;
   for (const std::string& file : files) {
     // Grey: libapriltag detects on grey (and it decodes faster).
-    const cv::Mat image = cv::imread(file, cv::IMREAD_GRAYSCALE);
-    if (image.empty()) {
-      throw InputError(file + ": cannot read or decode the image (missing, unreadable or corrupt)");
-    }
+    const cv::Mat image = readImageFile(file, cv::IMREAD_GRAYSCALE);
     ImageTags t;
     t.file = file;
     t.tags = detectTagsInImage(image, file, detector);

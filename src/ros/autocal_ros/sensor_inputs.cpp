@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "autocal/io/format.h"
+#include "autocal/io/image_file.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace autocal {
@@ -33,6 +34,8 @@ void FrameInput::drop(const std::string& why) {
 
 void FrameInput::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
   if (*error_ || !wanted_(msg->header.stamp)) return;
+  const std::string cut = truncatedImage(msg->data);
+  if (!cut.empty()) return drop(cut);
   cv::Mat image;
   if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
   if (image.empty()) return drop("the JPEG does not decode");

@@ -63,6 +63,16 @@ if(CATKIN_ENABLE_TESTING)
     DEPENDENCIES test_run_kill run_report_node wheel_calibration_node sim_node)
   add_rostest(test/report/run_kill.test ARGS stage:=odometry
     DEPENDENCIES test_run_kill run_report_node odometry_calibration_node sim_node)
+
+  # A calibration_root no one can write: every stage refuses it before the robot moves.
+  add_executable(test_run_unwritable EXCLUDE_FROM_ALL test/report/test_run_unwritable.cpp)
+  target_link_libraries(test_run_unwritable autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_run_unwritable PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_run_unwritable)
+  add_dependencies(tests test_run_unwritable)
+  add_rostest(test/report/run_unwritable.test
+    DEPENDENCIES test_run_unwritable run_report_node camera_calibration_node
+    wheel_calibration_node sim_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

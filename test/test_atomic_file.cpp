@@ -61,6 +61,36 @@ TEST_F(AtomicFileTest, UnwritableDirectoryThrowsAndKeepsTarget) {
   EXPECT_EQ(autocal::readFile(path), "good");
 }
 
+TEST_F(AtomicFileTest, AFolderAsTheTargetIsNamed) {
+  fs::create_directories(dir_ / "cal");
+  try {
+    autocal::writeFileAtomically((dir_ / "cal").string(), "x");
+    FAIL() << "no error";
+  } catch (const autocal::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("it is a folder"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(AtomicFileTest, WritableFolderCheckCreatesTheFolderAndLeavesNothing) {
+  const fs::path out = dir_ / "cal" / "kinematics";
+  autocal::checkWritableFolder(out.string());
+  EXPECT_TRUE(fs::is_directory(out));
+  EXPECT_TRUE(fs::is_empty(out));
+  // Folders no one can write, even root: under /proc, and under a regular file.
+  fs::create_directories(dir_);
+  autocal::writeFileAtomically((dir_ / "file").string(), "x");
+  for (const std::string& bad :
+       {std::string("/proc/autocal_check/kinematics"), (dir_ / "file" / "kinematics").string()}) {
+    try {
+      autocal::checkWritableFolder(bad);
+      FAIL() << bad << ": no error";
+    } catch (const autocal::IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad + ": cannot write here"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST_F(AtomicFileTest, ReadMissingFileThrows) {
   EXPECT_THROW(autocal::readFile((dir_ / "missing").string()), autocal::IoError);
 }

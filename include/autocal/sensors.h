@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <vector>
 
 namespace autocal {
 
@@ -68,6 +70,35 @@ class EncoderTracker {
   double last_change_s_ = -1.0, last_change_left_s_ = -1.0, last_change_right_s_ = -1.0;
   std::int32_t raw_left_ = 0, raw_right_ = 0;
   double left_ = 0.0, right_ = 0.0;
+};
+
+/// Both wheels' counts at one instant, from the two encoders' separate readings. A robot's two
+/// encoder drivers publish one after the other (or with their own stamps): paired as they arrive,
+/// one wheel's count is always a reading behind the other's while the robot moves, which a path
+/// integrated from them turns into a heading error of one reading's motion over the wheelbase
+/// (about 5 degrees at 0.25 m/s and 30 Hz) and, since forward and backward drives err to the same
+/// side, a lateral drift of centimetres per drive. Here a reading of one wheel is paired with the
+/// other wheel's count interpolated to its stamp between the readings around it (never
+/// extrapolated): readings of both wheels with the same stamp pair exactly.
+class EncoderPairer {
+ public:
+  struct Pair {
+    double stamp_s = 0.0;
+    double left_ticks = 0.0;  ///< unwrapped counts (fractional where interpolated)
+    double right_ticks = 0.0;
+  };
+  /// A reading of `side` (0 left, 1 right); returns the pairs it completes, in time order.
+  /// Readings older than the wheel's latest are ignored; one with the same stamp replaces it.
+  std::vector<Pair> add(int side, double stamp_s, std::int32_t ticks);
+
+ private:
+  struct Reading {
+    double stamp_s;
+    double ticks;
+  };
+  std::vector<Reading> readings_[2];  ///< per wheel, from the last one at or before paired_s_
+  std::int32_t raw_[2] = {0, 0};
+  double paired_s_ = -std::numeric_limits<double>::infinity();
 };
 
 /// Duties of the two motors, −1..1 (Duckietown's wheels_cmd vel_left/vel_right).

@@ -25,6 +25,8 @@ void writeFileAtomically(const std::string& path, const std::string& contents,
   if (target.filename().empty()) throw IoError("cannot write '" + path + "': not a file name");
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::error_code ec;
+  if (fs::is_directory(target, ec))
+    throw IoError("cannot write '" + path + "': it is a folder (give a file name in it)");
   if (options.create_directories) {
     fs::create_directories(dir, ec);
     if (ec) throw IoError("cannot create directory '" + dir.string() + "': " + ec.message());
@@ -75,6 +77,21 @@ void writeFileAtomically(const std::string& path, const std::string& contents,
     ::fsync(dfd);
     ::close(dfd);
   }
+}
+
+void checkWritableFolder(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec)
+    throw IoError(dir + ": cannot write here (cannot create the folder: " + ec.message() + ")");
+  std::string tmpl = (fs::path(dir) / ".autocal_write_check.XXXXXX").string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw IoError(dir + ": cannot write here (" + errnoText() + ")");
+  const bool wrote = ::write(fd, "x", 1) == 1;
+  const std::string reason = wrote ? "" : errnoText();
+  ::close(fd);
+  ::unlink(tmpl.c_str());
+  if (!wrote) throw IoError(dir + ": cannot write here (" + reason + ")");
 }
 
 std::string readFile(const std::string& path) {

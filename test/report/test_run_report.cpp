@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 
 #include "autocal/errors.h"
@@ -80,6 +82,22 @@ TEST(RunRecorder, OneFailedStageEndsTheRunAndLaterStatusesAreIgnored) {
   EXPECT_FALSE(r.record().succeeded());
   EXPECT_EQ(r.record().failure(), "camera: no board in view over a full turn");
   EXPECT_EQ(r.record().stage("odometry")->state, StageState::kPending);
+}
+
+TEST(RunRecorder, AStageThatOnlyWaitedIsNotStartedInTheSummaryAndGates) {
+  RunRecorder r("autobot", {"camera", "wheels", "odometry"});
+  r.addStatus(status(1, "wheels/wait", kRunning, "waiting for the camera stage"));
+  r.addStatus(status(2, "camera/collect", kRunning, "collecting"));
+  r.addStatus(status(9, "camera/collect", kFailed, "no board in view over a full turn"));
+  ASSERT_TRUE(r.ended());
+  EXPECT_EQ(r.record().stage("camera")->stateText(), "failed");
+  EXPECT_EQ(r.record().stage("wheels")->stateText(), "not started");
+  EXPECT_EQ(r.record().stage("odometry")->stateText(), "not started");
+  const std::string yaml = summaryYaml(r.record(), ViewsAudit(), ReportOptions(), "t");
+  EXPECT_NE(yaml.find("  wheels:\n    state: not started\n"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("state: running"), std::string::npos) << yaml;
+  for (const Gate& g : evaluateGates(r.record(), ViewsAudit(), ReportOptions()))
+    if (g.name == "wheels stage") EXPECT_EQ(g.detail, "not started");
 }
 
 TEST(RunRecorder, DeadStageAndInterruption) {
@@ -176,15 +194,81 @@ TEST(BelievedPath, IntegratesTheEncoders) {
   const std::vector<PathPoint> path = believedPath(r.record(), radius, baseline);
   ASSERT_FALSE(path.empty());
   const double tick = 2 * M_PI * radius / tpr;
-  EXPECT_NEAR(path.back().x_m, 1.0, 2 * tick);
-  EXPECT_NEAR(path.back().y_m, 0.5, 3 * tick);
-  EXPECT_NEAR(path.back().theta_rad, M_PI / 2, 2 * tick / baseline);
+  EXPECT_NEAR(path.back().pose.x_m, 1.0, 2 * tick);
+  EXPECT_NEAR(path.back().pose.y_m, 0.5, 3 * tick);
+  EXPECT_NEAR(path.back().pose.yaw_rad, M_PI / 2, 2 * tick / baseline);
   // Readings closer than 50 ms are not kept.
   RunRecorder q("autobot", {"wheels"});
   q.addEncoders(1.00, 0, 0, tpr);
   q.addEncoders(1.01, 1, 1, tpr);
   q.addEncoders(1.06, 2, 2, tpr);
   EXPECT_EQ(q.record().encoders.size(), 2u);
+}
+
+// Drives forward and back along x, as the wheel stage does over the tags, at 0.25 m/s, the two
+// encoders published as separate readings at 30 Hz: with the left one first at the same stamp
+// (the simulator, a driver reading both at once), or 7 ms apart (two drivers). The believed path
+// stays on the line: paired as they arrived, the lagging wheel bent every drive to the same side
+// (about 3 cm of drift per 0.5 m drive).
+TEST(RunRecorder, BelievedPathOfDrivesForwardAndBackStaysOnTheLine) {
+  const double radius = 0.0318, baseline = 0.1;
+  const int tpr = 135;
+  const double rad_per_tick = 2 * M_PI / tpr;
+  for (const double right_delay_s : {0.0, 0.007}) {
+    RunRecorder r("autobot", {"wheels"});
+    // Both wheels turn alike (the truth is the x axis): 2 s each way, 10 drives.
+    const double speed_rad_s = 0.25 / radius;
+    const auto ticksAt = [&](double t) {
+      const int drive = static_cast<int>(t / 2.0);
+      const double into = t - 2.0 * drive;
+      const double rad = speed_rad_s * (drive % 2 == 0 ? into : 2.0 - into);
+      return static_cast<std::int32_t>(std::floor(rad / rad_per_tick));
+    };
+    for (int i = 1; i <= 600; ++i) {
+      const double t = i / 30.0;
+      r.addEncoderReading(0, t, ticksAt(t), tpr);
+      r.addEncoderReading(1, t + right_delay_s, ticksAt(t + right_delay_s), tpr);
+    }
+    const std::vector<PathPoint> path = believedPath(r.record(), radius, baseline);
+    ASSERT_GT(path.size(), 250u);
+    double worst_y = 0, worst_yaw = 0;
+    for (const PathPoint& p : path) {
+      worst_y = std::max(worst_y, std::abs(p.pose.y_m));
+      worst_yaw = std::max(worst_yaw, std::abs(p.pose.yaw_rad));
+    }
+    // One tick of one wheel is 1.5 mm and 0.015 rad of heading: at most two.
+    EXPECT_LT(worst_y, 0.005) << "right " << right_delay_s << " s after the left";
+    EXPECT_LT(worst_yaw, 0.03) << "right " << right_delay_s << " s after the left";
+  }
+}
+
+TEST(EncoderPairer, PairsAtOneInstantInterpolatingTheOtherWheelNeverExtrapolating) {
+  EncoderPairer p;
+  EXPECT_TRUE(p.add(0, 1.0, 10).empty());  // no right reading yet
+  auto out = p.add(1, 1.0, 20);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(out[0].left_ticks, 10);
+  EXPECT_DOUBLE_EQ(out[0].right_ticks, 20);
+  EXPECT_TRUE(p.add(0, 2.0, 30).empty());  // the right count at 2.0 is not known yet
+  out = p.add(1, 3.0, 40);  // pairs 2.0 (right interpolated), not 3.0 (no left reading after it)
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(out[0].stamp_s, 2.0);
+  EXPECT_DOUBLE_EQ(out[0].left_ticks, 30);
+  EXPECT_DOUBLE_EQ(out[0].right_ticks, 30);
+  EXPECT_TRUE(p.add(0, 1.5, 99).empty());  // older than the left wheel's latest: ignored
+  out = p.add(0, 3.0, 50);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(out[0].left_ticks, 50);
+  EXPECT_DOUBLE_EQ(out[0].right_ticks, 40);
+  // 32-bit counts wrap around.
+  EncoderPairer w;
+  w.add(0, 0.0, std::numeric_limits<std::int32_t>::max());
+  w.add(1, 0.0, 0);
+  w.add(1, 1.0, 0);
+  out = w.add(0, 1.0, std::numeric_limits<std::int32_t>::min());
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_DOUBLE_EQ(
+      out[0].left_ticks - static_cast<double>(std::numeric_limits<std::int32_t>::max()), 1);
 }
 
 TEST(Report, WritesTheSheetAndTheSummary) {

@@ -124,23 +124,25 @@ TEST_F(RunReportNodeTest, DiagnosticsFollowTheStagesAndTheBelievedPathTheEncoder
   // The camera stage says nothing for longer than ~silent_warn_s.
   EXPECT_TRUE(waitFor("camera", DiagnosticStatus::WARN, "silent for"));
 
-  // The encoders, one wheel at a time (forward, then a pivot), each reading 0.1 s after the last
-  // (the node keeps one every 0.05 s). The two wheels are two topics: the next reading goes out
-  // once the path shows the last one, so the node sees them in this order.
+  // The encoders, one wheel moving at a time (forward, then a pivot), both wheels' readings of an
+  // instant with its stamp, each 0.1 s after the last (the node keeps one every 0.05 s): the node
+  // pairs the two topics' readings by their stamps. The next instant goes out once the path shows
+  // the last one.
   std::vector<autocal::report::EncoderSample> sent;
   const ros::Time t0 = ros::Time::now();
   int left = 0, right = 0;
   encoder(left_pub_, t0, left);
   encoder(right_pub_, t0, right);
-  sent.push_back({t0.toSec(), left, right});
+  sent.push_back({t0.toSec(), double(left), double(right)});
   ASSERT_TRUE(spinUntil([&] { return path_ && path_->poses.size() == 1; }, 30.0));
   for (int i = 1; i <= 18; ++i) {
     const bool left_wheel = i % 2 == 1;
     const int step = i <= 12 ? 10 : (left_wheel ? -5 : 5);
     (left_wheel ? left : right) += step;
     const ros::Time stamp = t0 + ros::Duration(0.1 * i);
-    encoder(left_wheel ? left_pub_ : right_pub_, stamp, left_wheel ? left : right);
-    sent.push_back({stamp.toSec(), left, right});
+    encoder(left_pub_, stamp, left);
+    encoder(right_pub_, stamp, right);
+    sent.push_back({stamp.toSec(), double(left), double(right)});
     ASSERT_TRUE(spinUntil([&] { return path_ && path_->poses.size() == sent.size(); }, 30.0))
         << "the believed path did not reach " << sent.size()
         << " poses (last: " << (path_ ? path_->poses.size() : 0) << ")";
@@ -154,13 +156,13 @@ TEST_F(RunReportNodeTest, DiagnosticsFollowTheStagesAndTheBelievedPathTheEncoder
       record, testParam<double>("wheel_radius_m"), testParam<double>("baseline_m"));
   ASSERT_EQ(path_->poses.size(), expected.size());
   EXPECT_EQ(path_->header.frame_id, veh_ + "/odom");
-  EXPECT_GT(expected.back().x_m, 0.05);
-  EXPECT_GT(std::abs(expected.back().theta_rad), 0.2);
+  EXPECT_GT(expected.back().pose.x_m, 0.05);
+  EXPECT_GT(std::abs(expected.back().pose.yaw_rad), 0.2);
   for (size_t i = 0; i < expected.size(); ++i) {
     const geometry_msgs::PoseStamped& p = path_->poses[i];
-    EXPECT_NEAR(p.pose.position.x, expected[i].x_m, 1e-9) << i;
-    EXPECT_NEAR(p.pose.position.y, expected[i].y_m, 1e-9) << i;
-    EXPECT_NEAR(autocal::ros_layer::quaternionToYaw(p.pose.orientation), expected[i].theta_rad,
+    EXPECT_NEAR(p.pose.position.x, expected[i].pose.x_m, 1e-9) << i;
+    EXPECT_NEAR(p.pose.position.y, expected[i].pose.y_m, 1e-9) << i;
+    EXPECT_NEAR(autocal::ros_layer::quaternionToYaw(p.pose.orientation), expected[i].pose.yaw_rad,
                 1e-9)
         << i;
     EXPECT_NEAR(p.header.stamp.toSec(), expected[i].t_s, 1e-6) << i;

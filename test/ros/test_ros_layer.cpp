@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <signal.h>
 
 #include <cmath>
 #include <filesystem>
@@ -151,6 +152,24 @@ TEST(NodeRuntime, StopSendsZeroDutiesThatASubscriberSees) {
   }
   EXPECT_GE(zeros, 2) << "the stop is repeated";
   EXPECT_EQ(got.back(), std::make_pair(0.0f, 0.0f));
+}
+
+TEST(NodeRuntime, AStageInterruptedWhileWaitingForTheOneBeforeEndsWithoutFailed) {
+  ros::NodeHandle nh("waiter");
+  std::vector<CalibrationStatus> got;
+  ros::Subscriber sub = nh.subscribe<CalibrationStatus>(
+      "calibration/status", 20, [&](const CalibrationStatus::ConstPtr& m) { got.push_back(*m); });
+  ASSERT_TRUE(spinUntil([&] { return !got.empty(); }, 30.0)) << "no status from the waiting node";
+  EXPECT_EQ(got.back().phase, "wheels/wait");
+  const std::string node = "/waiter/wheel_calibration_node";
+  const int pid = nodePid(node);
+  ASSERT_GT(pid, 0) << node;
+  ASSERT_EQ(::kill(pid, SIGINT), 0);
+  // Gone, its last word still the wait (a FAILED would arrive before the node exits).
+  ASSERT_TRUE(spinUntil([&] { return ::kill(pid, 0) != 0; }, 20.0)) << node << " did not end";
+  spinUntil([] { return false; }, 0.5);
+  for (const CalibrationStatus& s : got)
+    EXPECT_NE(s.state, CalibrationStatus::STATE_FAILED) << s.phase << ": " << s.failure_reason;
 }
 
 int main(int argc, char** argv) {

@@ -8,11 +8,15 @@
 // simulator's truth.
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "autocal/pose2d.h"
+#include "autocal/sensors.h"
 
 namespace autocal {
 namespace report {
@@ -38,10 +42,15 @@ struct StageRecord {
   std::string text, failure;
   double progress = -1;
   double start_s = -1, end_s = -1;  ///< stamps of its first and last status
-  std::string file;                 ///< what the DONE text names ("wrote <path>")
+  std::string file;                 ///< the file its DONE carries (written or kept)
   std::vector<std::pair<std::string, double>> figures;  ///< of its last status
   /// The figure `name`, or NaN.
   double figure(const std::string& name) const;
+  /// Past waiting for the stage before it (a status other than "<stage>/wait" came).
+  bool started() const { return start_s >= 0 || state == StageState::kDone; }
+  /// What the report shows: "not started" for a stage that never got past waiting (its node
+  /// may have published "<stage>/wait"), otherwise name(state).
+  std::string stateText() const;
 };
 
 /// One wheel-stage update of k (from the status figures "iteration", "k", "trim",
@@ -53,7 +62,7 @@ struct WheelIteration {
 
 struct EncoderSample {
   double stamp_s = 0;
-  int left = 0, right = 0;
+  double left = 0, right = 0;  ///< both wheels' counts at the stamp [ticks]
 };
 
 struct RunRecord {
@@ -80,9 +89,14 @@ class RunRecorder {
 
   /// A status of any stage; statuses of stages not in the run (e.g. "sim") are ignored.
   void addStatus(const StatusUpdate& status);
-  /// Encoder readings, kept at most every `min_interval_s` for the believed path.
-  void addEncoders(double stamp_s, int left, int right, int ticks_per_revolution,
+  /// Both wheels' counts at one instant, kept at most every `min_interval_s` for the believed
+  /// path.
+  void addEncoders(double stamp_s, double left, double right, int ticks_per_revolution,
                    double min_interval_s = 0.05);
+  /// One wheel's encoder reading (`side` 0 left, 1 right), as its driver publishes it: paired with
+  /// the other wheel's count at the same instant (EncoderPairer) before it is kept.
+  void addEncoderReading(int side, double stamp_s, std::int32_t ticks, int ticks_per_revolution,
+                         double min_interval_s = 0.05);
   /// The node of `stage` went away while the stage was running (no DONE or FAILED): the stage
   /// fails with `why`.
   void markStageDead(const std::string& stage, const std::string& why);
@@ -103,6 +117,7 @@ class RunRecorder {
  private:
   StageRecord* find(const std::string& stage);
   RunRecord record_;
+  EncoderPairer encoder_pairer_;
 };
 
 /// How one stage looks to a person watching the run (issue 12 "Progress"; run_report_node turns
@@ -119,10 +134,11 @@ struct StageHealth {
 StageHealth stageHealth(const StageRecord& stage, bool current, double silent_s,
                         double warn_after_s);
 
-/// The pose the encoders give, integrated with a nominal wheel radius and baseline [m]: what the
-/// robot believes its path was (x forward at the first sample, y left).
+/// The pose the encoders give, dead-reckoned (odometry::DeadReckoning) with one wheel radius and
+/// a baseline [m]: what the robot believes its path was (x forward at the first sample, y left).
 struct PathPoint {
-  double t_s = 0, x_m = 0, y_m = 0, theta_rad = 0;
+  double t_s = 0;
+  Pose2D pose;
 };
 std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
                                     double baseline_m);

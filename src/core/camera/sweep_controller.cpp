@@ -117,7 +117,12 @@ std::vector<int> SweepController::viewsPerBoard() const {
 
 std::string SweepController::boardName(int ordinal) const {
   if (boardsKnown()) return "board " + std::to_string(index(ordinal));
-  return "board #" + std::to_string(ordinal) + " (counted from the first seen)";
+  // Before the first pass has counted the boards, ordinals count them from the first one seen,
+  // one up per board in the direction of a left (counter-clockwise) turn.
+  if (ordinal == 0) return "the first board seen";
+  const int n = std::abs(ordinal);
+  return std::to_string(n) + (n == 1 ? " board " : " boards ") + (ordinal > 0 ? "left" : "right") +
+         " of the first one seen";
 }
 
 std::string SweepController::describe() const {

@@ -15,6 +15,7 @@
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/io/yaml_reader.h"
+#include "autocal/odometry/dead_reckoning.h"
 
 namespace autocal {
 namespace report {
@@ -128,8 +129,8 @@ void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path)
   }
   double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
   for (const PathPoint& p : path) {
-    x0 = std::min(x0, p.x_m), x1 = std::max(x1, p.x_m);
-    y0 = std::min(y0, p.y_m), y1 = std::max(y1, p.y_m);
+    x0 = std::min(x0, p.pose.x_m), x1 = std::max(x1, p.pose.x_m);
+    y0 = std::min(y0, p.pose.y_m), y1 = std::max(y1, p.pose.y_m);
   }
   // Equal scales, a margin of 10 %, at least 0.5 m across.
   const double span = std::max({x1 - x0, (y1 - y0) * area.width / area.height, 0.5}) * 1.1;
@@ -137,11 +138,12 @@ void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path)
   const double span_y = span * area.height / area.width;
   const Plot plot{area, cx - span / 2, cx + span / 2, cy - span_y / 2, cy + span_y / 2};
   for (size_t i = 1; i < path.size(); ++i) {
-    cv::line(sheet, plot.map(path[i - 1].x_m, path[i - 1].y_m), plot.map(path[i].x_m, path[i].y_m),
-             kBlue, 1, cv::LINE_AA);
+    cv::line(sheet, plot.map(path[i - 1].pose.x_m, path[i - 1].pose.y_m),
+             plot.map(path[i].pose.x_m, path[i].pose.y_m), kBlue, 1, cv::LINE_AA);
   }
-  cv::circle(sheet, plot.map(path.front().x_m, path.front().y_m), 5, kGreen, 2);
-  cv::drawMarker(sheet, plot.map(path.back().x_m, path.back().y_m), kRed, cv::MARKER_CROSS, 10, 2);
+  cv::circle(sheet, plot.map(path.front().pose.x_m, path.front().pose.y_m), 5, kGreen, 2);
+  cv::drawMarker(sheet, plot.map(path.back().pose.x_m, path.back().pose.y_m), kRed,
+                 cv::MARKER_CROSS, 10, 2);
   // A scale bar of 0.5 m.
   const cv::Point a(area.x + 10, area.y + area.height - 12);
   const int bar = static_cast<int>(std::lround(0.5 / span * area.width));
@@ -290,12 +292,18 @@ void RunRecorder::addStatus(const StatusUpdate& status) {
   }
 }
 
-void RunRecorder::addEncoders(double stamp_s, int left, int right, int ticks_per_revolution,
+void RunRecorder::addEncoders(double stamp_s, double left, double right, int ticks_per_revolution,
                               double min_interval_s) {
   if (ticks_per_revolution > 0) record_.ticks_per_revolution = ticks_per_revolution;
   auto& e = record_.encoders;
   if (!e.empty() && stamp_s - e.back().stamp_s < min_interval_s) return;
   e.push_back({stamp_s, left, right});
+}
+
+void RunRecorder::addEncoderReading(int side, double stamp_s, std::int32_t ticks,
+                                    int ticks_per_revolution, double min_interval_s) {
+  for (const EncoderPairer::Pair& p : encoder_pairer_.add(side, stamp_s, ticks))
+    addEncoders(p.stamp_s, p.left_ticks, p.right_ticks, ticks_per_revolution, min_interval_s);
 }
 
 void RunRecorder::markStageDead(const std::string& stage, const std::string& why) {
@@ -337,6 +345,12 @@ std::string RunRecorder::currentStage() const {
   return "";
 }
 
+std::string StageRecord::stateText() const {
+  if ((state == StageState::kPending || state == StageState::kRunning) && !started())
+    return "not started";
+  return name(state);
+}
+
 StageHealth stageHealth(const StageRecord& stage, bool current, double silent_s,
                         double warn_after_s) {
   StageHealth h;
@@ -369,20 +383,14 @@ std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius
                                     double baseline_m) {
   std::vector<PathPoint> path;
   if (record.encoders.empty() || record.ticks_per_revolution <= 0) return path;
-  const double m_per_tick = 2 * M_PI * wheel_radius_m / record.ticks_per_revolution;
-  PathPoint p;
-  p.t_s = record.encoders.front().stamp_s;
-  path.push_back(p);
+  odometry::DeadReckoning odometry(odometry::DiffDriveParams::fromWheel(
+                                       2 * wheel_radius_m, record.ticks_per_revolution, baseline_m),
+                                   odometry::Integrator::kRungeKutta2);
+  path.push_back({record.encoders.front().stamp_s, odometry.pose()});
   for (size_t i = 1; i < record.encoders.size(); ++i) {
     const EncoderSample &a = record.encoders[i - 1], &b = record.encoders[i];
-    const double dl = (b.left - a.left) * m_per_tick, dr = (b.right - a.right) * m_per_tick;
-    const double ds = 0.5 * (dl + dr), dtheta = (dr - dl) / baseline_m;
-    const double mid = p.theta_rad + 0.5 * dtheta;
-    p.x_m += ds * std::cos(mid);
-    p.y_m += ds * std::sin(mid);
-    p.theta_rad += dtheta;
-    p.t_s = b.stamp_s;
-    path.push_back(p);
+    odometry.addPulses(b.left - a.left, b.right - a.right);
+    path.push_back({b.stamp_s, odometry.pose()});
   }
   return path;
 }
@@ -429,7 +437,7 @@ std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit
     gates.push_back({s.stage + " stage", s.state == StageState::kDone,
                      s.state == StageState::kFailed ? s.failure
                      : s.state == StageState::kDone ? "done"
-                                                    : std::string(name(s.state))});
+                                                    : s.stateText()});
   }
   if (const StageRecord* camera = record.stage("camera")) {
     if (camera->state == StageState::kDone) {
@@ -474,7 +482,7 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
     const cv::Scalar c = s.state == StageState::kDone     ? kGreen
                          : s.state == StageState::kFailed ? kRed
                                                           : kGrey;
-    std::string line = s.stage + ": " + name(s.state);
+    std::string line = s.stage + ": " + s.stateText();
     if (s.end_s >= 0 && s.start_s >= 0) line += ", " + formatNumber(s.end_s - s.start_s, 3) + " s";
     text(sheet, line, {1030, y}, 0.5, c);
     // Its first eight figures, four to a line.
@@ -511,7 +519,7 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
   o << "stages:\n";
   for (const StageRecord& s : record.stages) {
     o << "  " << s.stage << ":\n";
-    o << "    state: " << name(s.state) << "\n";
+    o << "    state: " << s.stateText() << "\n";
     o << "    phase: " << quoted(s.phase) << "\n";
     if (!s.file.empty()) o << "    file: " << quoted(s.file) << "\n";
     if (!s.failure.empty()) o << "    failure: " << quoted(s.failure) << "\n";
@@ -534,11 +542,12 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
       believedPath(record, options.wheel_radius_m, options.baseline_m);
   double length = 0;
   for (size_t i = 1; i < path.size(); ++i)
-    length += std::hypot(path[i].x_m - path[i - 1].x_m, path[i].y_m - path[i - 1].y_m);
+    length += std::hypot(path[i].pose.x_m - path[i - 1].pose.x_m,
+                         path[i].pose.y_m - path[i - 1].pose.y_m);
   o << "believed_path: {length_m: " << num(length, 4) << ", end: ["
-    << (path.empty() ? ".nan" : num(path.back().x_m, 4)) << ", "
-    << (path.empty() ? ".nan" : num(path.back().y_m, 4)) << ", "
-    << (path.empty() ? ".nan" : num(path.back().theta_rad, 4)) << "]}\n";
+    << (path.empty() ? ".nan" : num(path.back().pose.x_m, 4)) << ", "
+    << (path.empty() ? ".nan" : num(path.back().pose.y_m, 4)) << ", "
+    << (path.empty() ? ".nan" : num(path.back().pose.yaw_rad, 4)) << "]}\n";
   const std::vector<Gate> gates = evaluateGates(record, audit, options);
   o << "gates_passed: "
     << (std::all_of(gates.begin(), gates.end(), [](const Gate& g) { return g.passed; }) ? "true"

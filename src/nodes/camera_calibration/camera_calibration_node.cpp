@@ -11,6 +11,7 @@
 #include "autocal/camera/calibration_files.h"
 #include "autocal/camera/debug_image.h"
 #include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
@@ -23,7 +24,7 @@ namespace fs = std::filesystem;
 void CameraCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
   ros_layer::checkParam(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
-  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkCalibrationRoot(calibration_root);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");
@@ -144,6 +145,8 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
   // them (BENCHMARKS.md), and a frame is only grabbed once per step.
   camera_.detector.half_resolution_precheck = false;
   camera_.validate();
+  // The output folder, before the robot moves (the file is written after the whole sweep).
+  checkWritableFolder((fs::path(options_.calibration_root) / "camera_intrinsic").string());
 
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   debug_pub_ = pnh_.advertise<sensor_msgs::CompressedImage>("debug/image/compressed", 1);

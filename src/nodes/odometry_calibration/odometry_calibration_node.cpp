@@ -4,8 +4,10 @@
 #include <std_msgs/Float64.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal_ros/msg_conversion.h"
@@ -17,7 +19,7 @@ namespace odometry {
 void OdometryCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
-  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkCalibrationRoot(calibration_root);
   ros_layer::checkParam(std::isfinite(wheel_radius_m) && wheel_radius_m > 0, "wheel_radius_m",
                         "must be > 0 [m]");
   ros_layer::checkParam(std::isfinite(wheelbase_m) && wheelbase_m > 0, "wheelbase_m",
@@ -124,6 +126,11 @@ OdometryCalibrationNode::OdometryCalibrationNode(ros::NodeHandle nh, ros::NodeHa
       pnh_(pnh),
       options_(readOptions(nh, pnh)),
       status_throttle_(options_.status_rate_hz) {
+  // The output folder, before the robot moves (the file is written after the last experiment).
+  checkWritableFolder(
+      std::filesystem::path(odometryCalibrationPath(options_.calibration_root, options_.veh))
+          .parent_path()
+          .string());
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_.running("odometry/wait", 0, "waiting for the encoders and the range sensor");
 }

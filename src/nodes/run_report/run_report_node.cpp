@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/pose2d.h"
 #include "autocal/wheels/kinematics.h"
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 void RunReportNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
-  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkCalibrationRoot(calibration_root);
   for (const std::string& s : stages)
     ros_layer::checkParam(s == "camera" || s == "wheels" || s == "odometry", "stages",
                           "each must be camera, wheels or odometry (got '" + s + "')");
@@ -60,16 +61,18 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   options_.odom_frame = options_.veh + "/odom";
   p.get("odom_frame", options_.odom_frame);
   options_.validate();
+  checkWritableFolder(options_.report_dir);  // before the run: the report is written at its end
   recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
 
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_sub_ = nh_.subscribe("calibration/status", 50, &RunReportNode::onStatus, this);
+  // Each wheel's reading as its driver stamped it: the recorder pairs the two wheels at one
+  // instant (paired as they arrive, one would lag a reading behind and bend the path).
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_,
-      [this](const ros::Time& stamp, int left, int right, int tpr) {
-        recorder_->addEncoders(stamp.toSec(), left, right, tpr);
-      },
-      &error_);
+      nh_, [](const ros::Time&, int, int, int) {}, &error_,
+      [this](int side, const ros::Time& stamp, std::int32_t ticks, int tpr) {
+        recorder_->addEncoderReading(side, stamp.toSec(), ticks, tpr);
+      });
   believed_path_pub_ = nh_.advertise<nav_msgs::Path>("calibration/believed_path", 1);
 
   // /diagnostics (issue 12 "Progress"): one status per stage and one for the run, published
@@ -172,7 +175,7 @@ void RunReportNode::publishBelievedPath() {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = options_.odom_frame;
     pose.header.stamp = ros_layer::toRosTime(p.t_s);
-    pose.pose = ros_layer::toPoseMsg(Pose2D{p.x_m, p.y_m, p.theta_rad});
+    pose.pose = ros_layer::toPoseMsg(p.pose);
     msg.poses.push_back(pose);
   }
   believed_path_pub_.publish(msg);

@@ -3,8 +3,10 @@
 #include <camera_calibration_parsers/parse.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
@@ -16,7 +18,7 @@ namespace wheels {
 void WheelCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
-  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkCalibrationRoot(calibration_root);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");
@@ -117,6 +119,8 @@ WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle p
       status_throttle_(options_.status_rate_hz) {
   kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
   before_ = readKinematicsFileOrDefaults(kinematics_path_);  // a malformed file is an error
+  // The output folder, before the robot moves (the file is written after the last drive).
+  checkWritableFolder(std::filesystem::path(kinematics_path_).parent_path().string());
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   detections_pub_ =
       nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);

@@ -22,6 +22,12 @@ namespace ros_layer {
 namespace {
 std::atomic<bool> g_interrupted{false};
 extern "C" void onSignal(int) { g_interrupted = true; }
+// Whether this process's stage got past waiting for the stage before it (a status other than
+// "<stage>/wait" was published).
+std::atomic<bool> g_stage_started{false};
+bool isWaitPhase(const std::string& phase) {
+  return phase.size() >= 5 && phase.compare(phase.size() - 5, 5, "/wait") == 0;
+}
 }  // namespace
 
 bool ok() { return ros::ok() && !g_interrupted; }
@@ -34,6 +40,7 @@ void StatusPublisher::publish(uint8_t state, const std::string& phase, double pr
                               const std::string& text, const std::string& failure_reason,
                               const Figures& figures, const std::string& file) {
   if (!pub_) return;
+  if (!isWaitPhase(phase)) g_stage_started = true;
   CalibrationStatus s;
   s.header.stamp = ros::Time::now();
   s.phase = phase;
@@ -142,8 +149,13 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
     return fail(ExitCode::kInternal, "unknown exception");
   }
   if (interrupted()) {
-    if (options.interrupt_is_failure)
+    // A stage still waiting for the one before it when the launch ends (that stage failed, or
+    // the user stopped the run) was not interrupted: it never started. Quiet, no FAILED of its
+    // own, so that the run's report names the real cause and shows this stage as not started.
+    if (options.interrupt_is_failure && g_stage_started)
       return fail(ExitCode::kInterrupted, "interrupted by a signal");
+    if (options.interrupt_is_failure)
+      ROS_INFO_STREAM(options.name << ": stopped before its stage started");
     stopWheels();
   }
   ros::shutdown();

@@ -132,7 +132,9 @@ struct NodeRunOptions {
   std::string phase;            ///< the phase a FAILED status names, e.g. "camera"
   bool commands_wheels = true;  ///< stop the wheels on failure and interrupt
   std::string wheels_topic = "wheels_driver_node/wheels_cmd";
-  bool interrupt_is_failure = true;  ///< exit 130 with FAILED "interrupted" (else exit 0)
+  /// Exit 130 with FAILED "interrupted" once the stage has started (published a phase other than
+  /// "<stage>/wait"); before that, and when false, an interrupt ends the node quietly with 0.
+  bool interrupt_is_failure = true;
 };
 
 /// The main of every node: ros::init, then `body(nh, pnh)` (which constructs the node and runs

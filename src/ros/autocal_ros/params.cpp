@@ -20,6 +20,17 @@ void checkParam(bool ok, const std::string& key, const std::string& what) {
   checkConfig(ok, "~" + key, what);
 }
 
+void checkCalibrationRoot(const std::string& calibration_root) {
+  checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  checkParam(calibration_root.front() == '/', "calibration_root",
+             "'" + calibration_root +
+                 "' is a relative path: the nodes run in $ROS_HOME (~/.ros), where it would put "
+                 "the files; give an absolute one, e.g. calibration_root:=$(env PWD)/" +
+                 calibration_root +
+                 " in a launch file, or use rosrun autocal calibrate_sim, "
+                 "which resolves it from the current folder");
+}
+
 namespace {
 std::string show(double v) { return formatNumber(v); }
 std::string show(int v) { return std::to_string(v); }

@@ -20,6 +20,10 @@ std::string defaultVeh(const ros::NodeHandle& nh);
 /// Throws ConfigError "~<key>: <what>" unless `ok`: a node's options name the private parameter.
 void checkParam(bool ok, const std::string& key, const std::string& what);
 
+/// ~calibration_root as a node needs it: not empty and absolute (a node runs in $ROS_HOME, where a
+/// relative path would put the files); a ConfigError saying how to give it otherwise.
+void checkCalibrationRoot(const std::string& calibration_root);
+
 /// Runs a core options struct's validate() for a node: its ConfigError "key: what" becomes
 /// "~key: what", the private parameter's name.
 template <class Options>

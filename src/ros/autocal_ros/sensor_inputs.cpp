@@ -69,8 +69,9 @@ void FrameInput::handle(const ros::Time& stamp, const cv::Mat& image, const std:
   }
 }
 
-EncoderInput::EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error)
-    : handler_(std::move(handler)), error_(error) {
+EncoderInput::EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error,
+                           WheelHandler on_wheel)
+    : handler_(std::move(handler)), on_wheel_(std::move(on_wheel)), error_(error) {
   left_sub_ = nh.subscribe<dtmsg::WheelEncoderStamped>(
       "left_wheel_encoder_node/tick", 50,
       [this](const dtmsg::WheelEncoderStamped::ConstPtr& m) { on(m, true); });
@@ -86,6 +87,7 @@ void EncoderInput::on(const dtmsg::WheelEncoderStamped::ConstPtr& msg, bool left
     (left ? left_ : right_) = r.ticks;
     (left ? have_left_ : have_right_) = true;
     resolution_ = r.ticks_per_revolution;
+    if (on_wheel_) on_wheel_(left ? 0 : 1, msg->header.stamp, r.ticks, resolution_);
     if (valid()) handler_(msg->header.stamp, left_, right_, resolution_);
   } catch (...) {
     *error_ = std::current_exception();

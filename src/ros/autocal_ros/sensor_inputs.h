@@ -61,8 +61,13 @@ class EncoderInput {
   using Handler =
       std::function<void(const ros::Time& stamp, int left, int right, int ticks_per_revolution)>;
 
+  /// Called on every tick message with its wheel (0 left, 1 right), stamp, count and resolution.
+  using WheelHandler = std::function<void(int side, const ros::Time& stamp, std::int32_t ticks,
+                                          int ticks_per_revolution)>;
+
   /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr).
-  EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error);
+  EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error,
+               WheelHandler on_wheel = {});
   EncoderInput(const EncoderInput&) = delete;
   EncoderInput& operator=(const EncoderInput&) = delete;
   bool connected() const {
@@ -79,6 +84,7 @@ class EncoderInput {
 
   ros::Subscriber left_sub_, right_sub_;
   Handler handler_;
+  WheelHandler on_wheel_;
   std::exception_ptr* error_ = nullptr;
   bool have_left_ = false, have_right_ = false;
   int left_ = 0, right_ = 0, resolution_ = 0;

@@ -73,6 +73,16 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/report/run_unwritable.test
     DEPENDENCIES test_run_unwritable run_report_node camera_calibration_node
     wheel_calibration_node sim_node)
+
+  # A robot config with a typo: the run's report names the simulator's reason.
+  add_executable(test_run_bad_config EXCLUDE_FROM_ALL test/report/test_run_bad_config.cpp)
+  target_link_libraries(test_run_bad_config autocal_core autocal_ros GTest::gtest)
+  target_include_directories(test_run_bad_config PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_run_bad_config)
+  add_dependencies(tests test_run_bad_config)
+  add_rostest(test/report/run_bad_config.test
+    DEPENDENCIES test_run_bad_config run_report_node camera_calibration_node
+    wheel_calibration_node sim_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

@@ -66,6 +66,15 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
 
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_sub_ = nh_.subscribe("calibration/status", 50, &RunReportNode::onStatus, this);
+  // A simulator that fails (a bad robot or world config: the FATAL names file, line and key) ends
+  // the run with its reason, not "interrupted".
+  sim_status_sub_ = nh_.subscribe<autocal::CalibrationStatus>(
+      "sim/status", 5, [this](const autocal::CalibrationStatus::ConstPtr& m) {
+        if (m->state != autocal::CalibrationStatus::STATE_FAILED) return;
+        const std::string why = "the simulator failed: " + m->failure_reason;
+        ROS_ERROR("run_report_node: %s", why.c_str());
+        recorder_->markInterrupted(why);
+      });
   // Each wheel's reading as its driver stamped it: the recorder pairs the two wheels at one
   // instant (paired as they arrive, one would lag a reading behind and bend the path).
   encoders_ = std::make_unique<ros_layer::EncoderInput>(

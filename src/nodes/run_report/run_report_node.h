@@ -84,6 +84,7 @@ class RunReportNode {
   std::unique_ptr<RunRecorder> recorder_;
   ros_layer::StatusPublisher status_;
   ros::Subscriber status_sub_;
+  ros::Subscriber sim_status_sub_;  ///< a simulator's own status (sim/status), when one runs
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   std::exception_ptr error_;
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it

@@ -137,7 +137,7 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
     status.failed(options.phase, reason);
     ROS_FATAL_STREAM(options.name << ": " << exitCodeMeaning(code) << ": " << reason);
     // Give the latched FAILED a moment to reach subscribers that are connecting now.
-    ros::WallDuration(0.2).sleep();
+    ros::WallDuration(options.failure_linger_s).sleep();
     ros::shutdown();
     return toInt(code);
   };

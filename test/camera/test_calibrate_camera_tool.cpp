@@ -121,6 +121,10 @@ TEST_F(ToolTest, ImageFolderWritesCameraInfoAndViews) {
   for (const auto& e : fs::directory_iterator(path("cam_views")))
     files += e.path().extension() == ".png";
   EXPECT_EQ(files, used.size());
+  // Readable by others, as the YAML beside it (a temporary folder is created 0700).
+  EXPECT_EQ(fs::status(path("cam_views")).permissions() & fs::perms::all,
+            fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                fs::perms::others_read | fs::perms::others_exec);
 
   // Again with fewer photos: the folder is replaced whole (no stale view_NNN.png), and the
   // previous YAML and folder are kept as a matching pair of .prev.

@@ -84,6 +84,9 @@ void writeCameraCalibration(const std::string& yaml_path, const std::string& yam
   }
   const fs::path tmp(tmpl);
   try {
+    // mkdtemp makes it private (0700); the folder it becomes is read like the YAML beside it.
+    fs::permissions(tmp, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                             fs::perms::others_read | fs::perms::others_exec);
     for (size_t u = 0; u < result.used_views.size(); ++u) {
       const CalibrationView& v = views.at(static_cast<size_t>(result.used_views[u]));
       const auto frame = frames.find(v.frame_index);

@@ -126,7 +126,7 @@ TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   const std::string bag = testParam<std::string>("bag");
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
-  fs::remove_all(root);  // the node writes only at its end, a minute from now
+  autocal::test::removeTree(root);  // the node writes only at its end, a minute from now
 
   ros::NodeHandle nh(veh);
   std::optional<CalibrationStatus> end;

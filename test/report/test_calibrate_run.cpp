@@ -34,7 +34,7 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
   const fs::path summary_path = root / "report" / veh / "summary.yaml";
-  fs::remove_all(root);  // an earlier test run's files (the nodes write only at their ends)
+  ASSERT_TRUE(autocal::test::removeTree(root));  // an earlier test run's files (the nodes write only at their ends)
   ros::NodeHandle nh;
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary_path); }, 580.0)) << summary_path;
   YamlMap summary = YamlMap::loadFile(summary_path.string());

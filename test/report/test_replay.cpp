@@ -70,7 +70,7 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
   const fs::path summary = live_root / "report" / veh / "summary.yaml";
   // An earlier test run's files (the stages write only at their ends; the recorder is writing
   // live.bag.active now, which stays).
-  fs::remove_all(live_root);
+  ASSERT_TRUE(autocal::test::removeTree(live_root));
   fs::remove(bag);
   ros::NodeHandle nh;
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary); }, 400.0)) << summary;

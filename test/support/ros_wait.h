@@ -6,6 +6,10 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
+#include <filesystem>
+#include <string>
+#include <system_error>
+
 namespace autocal {
 namespace test {
 
@@ -24,6 +28,18 @@ bool spinUntil(F done, double wall_budget_s) {
 inline bool spinUntilSimTime(double t_s, double wall_budget_s) {
   return spinUntil([&] { return ros::Time::isValid() && ros::Time::now().toSec() >= t_s; },
                    wall_budget_s);
+}
+
+/// Removes an earlier test run's files under `path` while the launch's nodes start: they create
+/// their output folders at once (the stages' preflight), which can make one pass of remove_all
+/// find a folder not empty. Retries until the tree is gone; false if it never is.
+inline bool removeTree(const std::string& path) {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+    if (!ec && !std::filesystem::exists(path, ec)) return true;
+  }
+  return false;
 }
 
 }  // namespace test

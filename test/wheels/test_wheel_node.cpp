@@ -32,7 +32,7 @@ TEST(WheelNode, CalibratesTheTrimAndLeavesTheTagField) {
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
   const autocal::sim::WorldConfig world =
       autocal::sim::loadWorldConfig(testParam<std::string>("world_config"));
-  fs::remove_all(root);
+  ASSERT_TRUE(autocal::test::removeTree(root));
 
   ros::NodeHandle nh(veh);
   std::optional<CalibrationStatus> end;

@@ -191,21 +191,13 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
 }
 
 void CameraCalibrationNode::connect() {
-  // The wheels are advertised last: a simulator started with wait_for_controller holds its clock
-  // until a wheels_cmd publisher appears, and every input must be connected by then. Wall time:
-  // a held clock does not move. Inputs that never connect are caught by the timeouts later.
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
-  while (ros_layer::ok() && ros::WallTime::now() < end &&
-         (frames_->publishers() == 0 || !encoders_->connected() ||
-          info_sub_.getNumPublishers() == 0)) {
-    ros::WallDuration(0.01).sleep();
-  }
-  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
-  // The first command must not be lost: a simulator in lockstep holds its clock until a command
-  // comes (WheelsCommander::waitForSubscriber).
-  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
-    ROS_WARN("camera_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
-  }
+  wheels_ = ros_layer::connectStage(
+      nh_,
+      [this] {
+        return frames_->publishers() > 0 && encoders_->connected() &&
+               info_sub_.getNumPublishers() > 0;
+      },
+      options_.connect_wait_s);
 }
 
 template <typename F>

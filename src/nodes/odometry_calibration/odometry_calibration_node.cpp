@@ -258,19 +258,10 @@ void OdometryCalibrationNode::run() {
                 ? "accepted"
                 : "rejected");
       });
-  // Inputs first, the wheels last (a simulator started with wait_for_controller holds its clock
-  // until a wheels_cmd publisher appears). Wall time: a held clock does not move.
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
-  while (ros_layer::ok() && ros::WallTime::now() < end &&
-         (!encoders_->connected() || (!umbmark() && range_sub_.getNumPublishers() == 0))) {
-    ros::WallDuration(0.01).sleep();
-  }
-  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
-  // In a calibration run the simulator, in lockstep with the stage before, holds its clock until
-  // a command comes: the first one must not be lost (WheelsCommander::waitForSubscriber).
-  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
-    ROS_WARN("odometry_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
-  }
+  wheels_ = ros_layer::connectStage(
+      nh_,
+      [this] { return encoders_->connected() && (umbmark() || range_sub_.getNumPublishers() > 0); },
+      options_.connect_wait_s);
   ros::Rate rate(options_.control_rate_hz);
   const ros::WallTime wait_start = ros::WallTime::now();
   while (ros_layer::ok() && !runDone()) {

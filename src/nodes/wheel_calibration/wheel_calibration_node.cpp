@@ -142,19 +142,9 @@ void WheelCalibrationNode::waitForCameraStage() {
 }
 
 void WheelCalibrationNode::connect() {
-  // Inputs first, the wheels last (a simulator started with wait_for_controller holds its clock
-  // until a wheels_cmd publisher appears). Wall time: a held clock does not move.
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(options_.connect_wait_s);
-  while (ros_layer::ok() && ros::WallTime::now() < end &&
-         (frames_->publishers() == 0 || !encoders_->connected())) {
-    ros::WallDuration(0.01).sleep();
-  }
-  wheels_ = ros_layer::WheelsCommander(nh_, "wheels_driver_node/wheels_cmd");
-  // The first command must not be lost: a simulator in lockstep holds its clock until a command
-  // comes (WheelsCommander::waitForSubscriber).
-  if (!wheels_.waitForSubscriber(options_.connect_wait_s)) {
-    ROS_WARN("wheel_calibration_node: nobody subscribes to wheels_driver_node/wheels_cmd");
-  }
+  wheels_ = ros_layer::connectStage(
+      nh_, [this] { return frames_->publishers() > 0 && encoders_->connected(); },
+      options_.connect_wait_s);
 }
 
 void WheelCalibrationNode::publishDetections(const ros::Time& stamp) {

@@ -103,6 +103,20 @@ void WheelsCommander::stop(double repeat_s, double wait_for_subscriber_s) {
   } while (ros::WallTime::now() < end && ros::ok());
 }
 
+WheelsCommander connectStage(ros::NodeHandle nh, const std::function<bool()>& inputs_connected,
+                             double wait_s) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(wait_s);
+  while (ok() && ros::WallTime::now() < end && !inputs_connected()) {
+    ros::WallDuration(0.01).sleep();
+  }
+  WheelsCommander wheels(nh, "wheels_driver_node/wheels_cmd");
+  if (!wheels.waitForSubscriber(wait_s)) {
+    ROS_WARN("%s: nobody subscribes to wheels_driver_node/wheels_cmd",
+             ros::this_node::getName().c_str());
+  }
+  return wheels;
+}
+
 bool WheelsCommander::waitForSubscriber(double timeout_s) {
   if (!pub_) return false;
   // Wall time: a simulator in lockstep holds its clock until the first command.

@@ -72,6 +72,15 @@ class WheelsCommander {
 /// True until ROS shuts down or SIGINT/SIGTERM arrived (runNode installs the handlers).
 bool ok();
 
+/// Connects a driving stage in the order a simulator holding its clock needs: waits up to
+/// `wait_s` [wall s] until `inputs_connected()` (its inputs have publishers; a simulator started
+/// with wait_for_controller holds its clock until a wheels_cmd publisher appears, and a held clock
+/// does not move), then advertises wheels_driver_node/wheels_cmd and waits up to `wait_s` for a
+/// subscriber, so that the first command is not lost (WheelsCommander::waitForSubscriber). Inputs
+/// that never connect are left to the stage's own timeouts; a missing subscriber is warned of.
+WheelsCommander connectStage(ros::NodeHandle nh, const std::function<bool()>& inputs_connected,
+                             double wait_s);
+
 /// What a stage node's callbacks saw in one batch (they set these; runStageLoop clears them).
 struct Arrivals {
   bool frames = false;

@@ -1,4 +1,4 @@
-# markers: the `detect_tags` command (issue 10), its tests and the tag detection benchmark
+# markers: the `detect_tags` command, its tests and the tag detection benchmark
 # (included from CMakeLists.txt; the detector itself, src/core/markers/tag_detector.cpp, is listed
 # in cmake/wheels.cmake, the stage that uses it first).
 target_sources(autocal_core PRIVATE

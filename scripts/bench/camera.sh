@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Camera calibration benchmark (issue 3), called by scripts/bench.sh: prints one Markdown section
+# Camera calibration benchmark, called by scripts/bench.sh: prints one Markdown section
 # on stdout, progress on stderr. Side by side in one run, on OpenCV's real photos (opencv-doc
 # left*.jpg, 9x6 inner corners, 25 mm): autocal's calibrate_camera, ROS camera_calibration's
 # MonoCalibrator (scripts/ros_camera_calibration_peer.py) and plain cv::calibrateCamera; then
@@ -89,7 +89,7 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2f", a / b}'; }
 pct() { awk -v a="$1" 'BEGIN {printf "%+.2f %%", 100 * (a - 535.9157) / 535.9157}'; }
 
 cat <<EOF2
-## Camera intrinsics: autocal vs ROS camera_calibration (issue 3)
+## Camera intrinsics: autocal vs ROS camera_calibration
 
 Same 13 photos (opencv-doc \`left*.jpg\`, 9x6 inner corners, 25 mm squares), same machine, same run.
 OpenCV's reference result for them (\`left_intrinsics.yml\`): fx = fy = 535.92 px.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# AprilTag detection benchmark (issue 10), called by scripts/bench.sh: prints one Markdown section
+# AprilTag detection benchmark, called by scripts/bench.sh: prints one Markdown section
 # on stdout, progress on stderr. Side by side in one run, one core, on the simulator's rendered
 # floor-tag frames: autocal's detector (undistort + libapriltag + IPPE pose) and plain libapriltag
 # on the raw frame with its own pose (what apriltag_ros runs), at quad_decimate 1 and 2.
@@ -23,7 +23,7 @@ read -r h1 h2 h3 h4 h5 h6 <<< "$(awk '$1 == "tags_in_view" {print $2, $3, $4, $5
 n=$(col ours_d1 2)
 
 cat <<EOF2
-## AprilTag detection and pose per frame (issue 10)
+## AprilTag detection and pose per frame
 
 $n frames of 640x480 the simulator renders for the default robot (\`sim/config/robot.yaml\`, its
 plumb_bob lens k1 = -0.27) facing the floor-tag strip of \`world.yaml\` from random poses (seed 7),

@@ -1,8 +1,8 @@
 // odometry::replayUah (the passive mode, paper 002 §2 from a recording) on runs of UahRun on the
 // simulator's core: the shared loop (test/support/odometry_in_sim.h) records what a bag of the
 // node's run would hold, the replay recomputes the result from it and is compared with the live
-// run's result and with the robot config's truth (issue 11's bounds). Then recordings that cannot
-// carry the result: each an InputError with its reason.
+// run's result and with the robot config's truth (the odometry stage's accuracy bounds). Then
+// recordings that cannot carry the result: each an InputError with its reason.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // The UAH run (odometry::UahRun, paper 002 §2) on the simulator's core, no ROS, judged by the truth
 // the test reads from the robot config (the run sees only encoders, ranges and, after each straight
 // run, its true length — what a person with a tape measure gives on a robot, here from the
-// simulator's pose). Targets (issue 11): Ed within 0.2 % of r_R/r_L, the wheelbase within 0.5 %,
+// simulator's pose). Targets: Ed within 0.2 % of r_R/r_L, the wheelbase within 0.5 %,
 // the right wheel's distance per pulse within 0.5 %, the round detector within one pulse of the
 // true pulses per round; a symmetric world is refused with a clear reason.
 #include <gtest/gtest.h>

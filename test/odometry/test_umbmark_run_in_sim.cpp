@@ -1,7 +1,7 @@
 // UMBmark driven by the robot (odometry::UmbmarkRun) on the simulator's core, no ROS, judged by the
 // truth the test reads from the robot config; the run sees only its encoders and, after each
 // square, the return error (here from the simulator's pose, as the ground-truth helper gives it
-// through ROS). Targets (issue 11): Ed and Eb within 0.5 % of the truth; after the correction,
+// through ROS). Targets: Ed and Eb within 0.5 % of the truth; after the correction,
 // E_max,syst of a fresh UMBmark run at least 10× smaller; UAH and UMBmark agree within their
 // tolerances on the same robot. Bad input: encoder jumps, stalls, absurd errors — clear reasons.
 #include <gtest/gtest.h>

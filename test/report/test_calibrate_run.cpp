@@ -1,7 +1,7 @@
 // The whole run (calibrate_run.test): waits for run_report_node's summary.yaml and judges the
 // files it names against the simulator's truth (the robot config): the camera's fx, fy, cx, cy
 // within 0.5 %, the trim within 0.005 of what the true wheels need, and UAH's Ed within 0.2 %, the
-// wheelbase and each wheel's distance per pulse within 0.5 % (issue 11's bounds).
+// wheelbase and each wheel's distance per pulse within 0.5 %.
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
@@ -34,7 +34,8 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
   const fs::path summary_path = root / "report" / veh / "summary.yaml";
-  ASSERT_TRUE(autocal::test::removeTree(root));  // an earlier test run's files (the nodes write only at their ends)
+  ASSERT_TRUE(autocal::test::removeTree(
+      root));  // an earlier test run's files (the nodes write only at their ends)
   ros::NodeHandle nh;
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary_path); }, 580.0)) << summary_path;
   YamlMap summary = YamlMap::loadFile(summary_path.string());

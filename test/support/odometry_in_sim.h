@@ -74,7 +74,7 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
 UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
                              const odometry::UmbmarkRunOptions& options, double max_sim_s = 1800);
 
-/// The robots of the odometry tests (issue 11): Duckiebot-like ones and a larger robot.
+/// The robots of the odometry tests: Duckiebot-like ones and a larger robot.
 struct OdometryTestRobot {
   std::string label;
   sim::RobotConfig robot;

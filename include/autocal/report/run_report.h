@@ -1,4 +1,4 @@
-// The report of one calibration run (issue 12 "Report"; DESIGN.md "The calibration run"),
+// The report of one calibration run (DESIGN.md "The calibration run"),
 // ROS-free: a RunRecorder is fed what the run published (every stage's status on the one status
 // topic, the encoder readings) and says when the run has ended (every stage DONE, or one FAILED);
 // the report is then a PNG sheet for a person (the views used and their reprojection errors, the
@@ -120,7 +120,7 @@ class RunRecorder {
   EncoderPairer encoder_pairer_;
 };
 
-/// How one stage looks to a person watching the run (issue 12 "Progress"; run_report_node turns
+/// How one stage looks to a person watching the run (run_report_node turns
 /// it into a diagnostic_msgs status): OK while pending, running or done; ERROR with the reason
 /// when it failed; WARN when it is the stage the run waits on and nothing was heard of it for
 /// more than `warn_after_s` [s].

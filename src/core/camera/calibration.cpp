@@ -420,7 +420,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
       options.selection == CalibrationOptions::Selection::kSignificance &&
       !isFisheye(options.model)) {
     // Drop the most complex group of terms while none of its terms stands out of its own
-    // uncertainty: such a term fits the noise of these views, not the lens (issue 3: ROS's fits
+    // uncertainty: such a term fits the noise of these views, not the lens (ROS's fits
     // swing by 15 px in fx between folds of 13 photos).
     size_t level = sets.size() - 1;
     Fit f = fit(obj, img, image_size, options.model, sets[level].flags, startFor(level));

@@ -84,7 +84,7 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
       });
   believed_path_pub_ = nh_.advertise<nav_msgs::Path>("calibration/believed_path", 1);
 
-  // /diagnostics (issue 12 "Progress"): one status per stage and one for the run, published
+  // /diagnostics: one status per stage and one for the run, published
   // every ~diagnostic_period (diagnostic_updater's parameter, 1 s) of the node's clock.
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_);
   diagnostics_->setHardwareID(options_.veh);

@@ -1,5 +1,5 @@
-// run_report_node — watches a whole calibration run and writes its report (issue 12 "Report",
-// "Progress", "Reliability"; DESIGN.md "The calibration run"). It listens to every stage on the one
+// run_report_node — watches a whole calibration run and writes its report (DESIGN.md "The
+// calibration run"). It listens to every stage on the one
 // status topic and to the encoders; it prints one progress line per stage as the stage goes on;
 // when every stage of ~stages is DONE, or one FAILED, it writes report.png and summary.yaml
 // (report::RunRecorder, report::writeReport) and exits 0 on success, 1 on failure (the launch files

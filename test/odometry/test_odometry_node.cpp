@@ -29,7 +29,8 @@ TEST(OdometryNode, WritesTheTrueWheelsFromTheUahExperiments) {
   const std::string root = testParam<std::string>("calibration_root");
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
-  ASSERT_TRUE(autocal::test::removeTree(root));  // the node writes only at its end, minutes from now
+  // An earlier test run's files (the node writes its file only at its end, minutes from now).
+  ASSERT_TRUE(autocal::test::removeTree(root));
 
   ros::NodeHandle nh(veh);
   std::optional<CalibrationStatus> end;

@@ -126,7 +126,8 @@ TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   const std::string bag = testParam<std::string>("bag");
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
-  autocal::test::removeTree(root);  // the node writes only at its end, a minute from now
+  // An earlier test run's files (the node writes its file only at its end, a minute from now).
+  autocal::test::removeTree(root);
 
   ros::NodeHandle nh(veh);
   std::optional<CalibrationStatus> end;

@@ -34,8 +34,8 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
   const fs::path summary_path = root / "report" / veh / "summary.yaml";
-  ASSERT_TRUE(autocal::test::removeTree(
-      root));  // an earlier test run's files (the nodes write only at their ends)
+  // An earlier test run's files (the nodes write their files only at their ends).
+  ASSERT_TRUE(autocal::test::removeTree(root));
   ros::NodeHandle nh;
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary_path); }, 580.0)) << summary_path;
   YamlMap summary = YamlMap::loadFile(summary_path.string());

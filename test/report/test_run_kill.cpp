@@ -39,7 +39,8 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   const std::string veh = testParam<std::string>("veh");
   const std::string stage = testParam<std::string>("stage");
   const fs::path root = testParam<std::string>("calibration_root");
-  ASSERT_TRUE(autocal::test::removeTree(root));  // the files of an earlier test run, and its report
+  // The files of an earlier test run, and its report.
+  ASSERT_TRUE(autocal::test::removeTree(root));
   ros::NodeHandle nh(veh);
 
   std::optional<CalibrationStatus> died;

@@ -27,7 +27,8 @@ TEST(SimFleet, EveryRobotCalibratedAgainstItsOwnTruth) {
   const fs::path root = testParam<std::string>("root");
   const std::vector<std::string> configs =
       autocal::splitCommaList(testParam<std::string>("robot_configs"));
-  ASSERT_TRUE(autocal::test::removeTree(root));  // an earlier test run's files (the nodes write only at their ends)
+  // An earlier test run's files (the nodes write their files only at their ends).
+  ASSERT_TRUE(autocal::test::removeTree(root));
   ros::NodeHandle nh;
   std::optional<autocal::CalibrationStatus> fleet_end;
   ros::Subscriber sub = nh.subscribe<autocal::CalibrationStatus>(

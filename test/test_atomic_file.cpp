@@ -71,10 +71,14 @@ TEST_F(AtomicFileTest, AFolderAsTheTargetIsNamed) {
   }
 }
 
-TEST_F(AtomicFileTest, WritableFolderCheckCreatesTheFolderAndLeavesNothing) {
+TEST_F(AtomicFileTest, WritableFolderCheckLeavesNothing) {
   const fs::path out = dir_ / "cal" / "kinematics";
+  fs::create_directories(dir_);
   autocal::checkWritableFolder(out.string());
-  EXPECT_TRUE(fs::is_directory(out));
+  EXPECT_FALSE(fs::exists(dir_ / "cal")) << "the folders the check created are gone";
+  fs::create_directories(out);
+  autocal::checkWritableFolder(out.string());
+  EXPECT_TRUE(fs::is_directory(out)) << "a folder that was there stays";
   EXPECT_TRUE(fs::is_empty(out));
   // Folders no one can write, even root: under /proc, and under a regular file.
   fs::create_directories(dir_);

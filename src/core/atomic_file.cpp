@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "autocal/errors.h"
 
@@ -81,16 +82,35 @@ void writeFileAtomically(const std::string& path, const std::string& contents,
 
 void checkWritableFolder(const std::string& dir) {
   std::error_code ec;
+  // The folders this check creates, deepest first: removed again after the probe (the stage
+  // creates them when it writes), so that a check leaves the file system as it found it.
+  std::vector<fs::path> created;
+  for (fs::path p = fs::absolute(dir, ec); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+    created.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  const auto removeCreated = [&] {
+    std::error_code ignored;  // a folder another process filled meanwhile stays
+    for (const fs::path& p : created) fs::remove(p, ignored);
+  };
   fs::create_directories(dir, ec);
-  if (ec)
-    throw IoError(dir + ": cannot write here (cannot create the folder: " + ec.message() + ")");
+  if (ec) {
+    const std::string reason = ec.message();
+    removeCreated();
+    throw IoError(dir + ": cannot write here (cannot create the folder: " + reason + ")");
+  }
   std::string tmpl = (fs::path(dir) / ".autocal_write_check.XXXXXX").string();
   const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) throw IoError(dir + ": cannot write here (" + errnoText() + ")");
+  if (fd < 0) {
+    const std::string reason = errnoText();
+    removeCreated();
+    throw IoError(dir + ": cannot write here (" + reason + ")");
+  }
   const bool wrote = ::write(fd, "x", 1) == 1;
   const std::string reason = wrote ? "" : errnoText();
   ::close(fd);
   ::unlink(tmpl.c_str());
+  removeCreated();
   if (!wrote) throw IoError(dir + ": cannot write here (" + reason + ")");
 }
 

@@ -129,12 +129,22 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
   EXPECT_NEAR(r.kinematics.deadband_right, live.kinematics.deadband_right, 0.005);
   EXPECT_TRUE(fs::exists(replay_root / "report" / veh / "report.png"));
 
-  // Cut during the wheel stage (rosbag play -u: the first 60 s of a 107 s recording whose camera
-  // stage ends at 28 s): the camera file, a FAILED wheel stage that says why, no kinematics file.
+  // Cut during the wheel stage (rosbag play -u: the recording up to halfway through the live wheel
+  // stage, which starts when the camera stage ends, a few tenths of a second into the recording):
+  // the camera file, a FAILED wheel stage that says why, no kinematics file. The stages' lengths
+  // vary between runs at real_time_factor 0 (a camera stage of 28 s in one, 84 s in another).
+  YamlMap live_summary = YamlMap::loadFile(summary.string());
+  YamlMap live_stages = live_summary.map("stages");
+  const double camera_s = live_stages.map("camera").required<double>("duration_s");
+  const double wheels_s = live_stages.map("wheels").required<double>("duration_s");
+  const int cut_s = static_cast<int>(std::ceil(camera_s + 0.5 * wheels_s));
+  std::cout << "cut after " << cut_s << " s (camera " << camera_s << " s, wheels " << wheels_s
+            << " s)" << std::endl;
   const fs::path cut_root = root / "cut";
   fs::remove_all(cut_root);
   EXPECT_EQ(replay("bag:=" + bag.string() + " veh:=" + veh + " rate:=" + rate +
-                       " duration_s:=60 calibration_root:=" + cut_root.string(),
+                       " duration_s:=" + std::to_string(cut_s) +
+                       " calibration_root:=" + cut_root.string(),
                    root / "cut.log"),
             1);
   const Files cut = readFiles(cut_root, veh);

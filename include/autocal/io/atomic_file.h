@@ -18,9 +18,10 @@ struct AtomicWriteOptions {
 void writeFileAtomically(const std::string& path, const std::string& contents,
                          const AtomicWriteOptions& options = AtomicWriteOptions());
 
-/// Creates `dir` (and its parents) if missing and writes and removes a probe file in it: a stage
-/// checks its output folder so before the robot moves. Throws IoError "<dir>: cannot write here
-/// (<reason>)" when it cannot.
+/// Whether files can be written in `dir`: creates it (and its parents) if missing, writes and
+/// removes a probe file in it, then removes the folders it created. A stage checks its output
+/// folder so before the robot moves. Throws IoError "<dir>: cannot write here (<reason>)" when it
+/// cannot.
 void checkWritableFolder(const std::string& dir);
 
 /// Reads a whole file; throws IoError naming the path when it cannot.

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <deque>
 #include <cstdlib>
+#include <deque>
 
 #include "autocal/errors.h"
 #include "autocal/sim/config.h"
@@ -58,6 +60,25 @@ struct ReplayTap : test::RecordingTap {
   CameraIntrinsics intrinsics;
   double intrinsics_at_s;
   int kept_before_intrinsics = 0;
+};
+
+/// The same replay fed as a recording made on a loaded machine holds it: each command is received
+/// (and recorded) `late_s` after its stamp, after the encoder readings and frames stamped in
+/// between; stamps are kept.
+struct LateCommandsTap : ReplayTap {
+  LateCommandsTap(const wheels::WheelRunOptions& o, const CameraIntrinsics& in, double at_s,
+                  double late_s)
+      : ReplayTap(o, in, at_s), late_s(late_s) {}
+  void command(double t, const WheelDuties& d) override { pending.push_back({t, d}); }
+  void encoders(double t, int l, int r, int res) override {
+    while (!pending.empty() && pending.front().first + late_s <= t) {
+      ReplayTap::command(pending.front().first, pending.front().second);
+      pending.pop_front();
+    }
+    ReplayTap::encoders(t, l, r, res);
+  }
+  double late_s;
+  std::deque<std::pair<double, WheelDuties>> pending;
 };
 
 Outcome calibrateAndValidate(const sim::RobotConfig& robot, const sim::WorldConfig& world,
@@ -131,7 +152,8 @@ TEST(WheelRunInSim, ProbeMinimaOneDutyStepApartAreOneDeadband) {
   // The default robot needs k > 1 (its right wheel is the faster): the first drive says so.
   EXPECT_GT(o.run.iterations.front().ratio_after, 1.0);
   EXPECT_GT(o.run.iterations.front().delta_theta_rad, -0.1);  // no 13-15 deg turn ...
-  for (const auto& it : o.run.iterations) EXPECT_LT(std::abs(it.delta_theta_rad), 0.1);  // ... in any drive
+  for (const auto& it : o.run.iterations)
+    EXPECT_LT(std::abs(it.delta_theta_rad), 0.1);  // ... in any drive
 }
 
 TEST(WheelRunDeadbandGuesses, MinimaWithinTheProbeStepAreAveragedOthersKept) {
@@ -184,8 +206,9 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
 // holds: the same trim within 0.002 (issue: within 0.005) and deadbands within 0.003, and so drives
 // as straight by the truth; the intrinsics come 15 s into the recording, the frames wanted before
 // are kept and detected then.
-void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess) {
-  ReplayTap tap(optionsFor(robot, deadband_guess), robot.camera.truth, 15.0);
+void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess,
+                         double commands_late_s = 0.0) {
+  LateCommandsTap tap(optionsFor(robot, deadband_guess), robot.camera.truth, 15.0, commands_late_s);
   const Outcome live = calibrateAndValidate(robot, defaultWorld(), deadband_guess, false, &tap);
   expectCalibrated(live, defaultWorld());
   const wheels::WheelReplayResult r = tap.replay.result();
@@ -211,6 +234,14 @@ TEST(WheelReplayInSim, DefaultRobot) {
 
 TEST(WheelReplayInSim, LeftWheelStrongTrimPlus008WideDeadband) {
   expectReplayMatches(variant(1.0, 0.86, 0.0318, 0.0318, 0.12), 0.126);
+}
+
+// A recording whose commands were received 0.7 s after their stamps (behind the encoder readings
+// of the drive they started, as rosbag record wrote them on a loaded machine) replays as the live
+// run: the motions are cut at the commands' stamps.
+TEST(WheelReplayInSim, CommandsRecordedLate) {
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  expectReplayMatches(robot, robot.deadband + 0.007, 0.7);
 }
 
 TEST(WheelReplay, ARecordingWithoutTheIterationIsAClearError) {

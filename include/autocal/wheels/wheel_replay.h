@@ -7,6 +7,12 @@
 // encoder rates the MotorFitter. The same options and pieces as the live stage, so a recording
 // gives the live result to within what the frames' detection varies.
 //
+// A recording holds its messages in the order they were received, which is not the order they
+// were stamped in: on a loaded robot (or a simulator running as fast as it can) a command may be
+// written after encoder readings and frames stamped later than it. Everything here goes by the
+// messages' stamps: motions are cut at the commands' stamps, ticks read at those stamps, and
+// frames put in the still their stamp falls in.
+//
 // The intrinsics may come late (the replayed camera stage computes them while the recording
 // plays on): frames wanted before setIntrinsics() are kept and detected then.
 #pragma once
@@ -73,24 +79,55 @@ class WheelReplay {
 
  private:
   enum class Kind { kStill, kForward, kBack, kTurn };
+  struct Command {
+    double stamp_s = 0;
+    Kind kind = Kind::kStill;
+    WheelDuties duties;
+  };
+  struct Reading {
+    double stamp_s = 0;
+    double left = 0, right = 0;  // unwrapped ticks since the first reading
+  };
+  struct Frame {
+    double stamp_s = 0;
+    cv::Mat image;  // kept until the intrinsics come
+    bool detected = false;
+    std::vector<TagSighting> sightings;
+  };
+  /// A motion between two commands of another kind, cut from the commands by their stamps.
   struct Segment {
     Kind kind = Kind::kStill;
-    double start_s = 0;
-    int start_left = 0, start_right = 0;
-    DriveRecord drive;  // forward and back drives
-    // stills: the frames (kept until detected) and what they showed
-    std::vector<std::pair<double, cv::Mat>> kept;
-    std::vector<std::vector<TagSighting>> frames;
-    int with_tags = 0, without_tags = 0;
+    double start_s = 0, end_s = 0;  // the first still starts at -inf; the last ends at +inf
+    DriveRecord drive;
   };
   static Kind classify(const WheelDuties& d);
-  bool stillMeasured(const Segment& s) const;
-  void detectInto(Segment& s, const cv::Mat& image);
+  /// With `with_samples`, the drives' encoder readings too.
+  std::vector<Segment> segments(bool with_samples = false) const;
+  /// The segment (of segments()) whose stamps hold `stamp_s`.
+  static const Segment& segmentAt(const std::vector<Segment>& segments, double stamp_s);
+  /// The unwrapped counts of the latest reading at or before `stamp_s` (the first reading's
+  /// before it), as a live stage reading its encoders at that instant has them.
+  const Reading& readingAt(double stamp_s) const;
+  /// The encoders as of the reading at or before `stamp_s` had not changed for `still_s`, and
+  /// that reading is at or after `since_s` (EncoderTracker::stillSince at that instant).
+  bool stillAt(double since_s, double stamp_s, double still_s) const;
+  /// The stamp of the reading where the counts last changed, as of `stamp_s` (+inf before any).
+  double lastChangeAt(double stamp_s) const;
+  /// WheelRun would measure a frame at `stamp_s` in `s`: a still, settled.
+  bool settledAt(const Segment& s, double stamp_s) const;
+  /// No command received is stamped after `stamp_s`: a later one may still come.
+  bool undecided(double stamp_s) const;
+  /// The frames of a still (by stamp) that WheelRun's rule used, and their count.
+  std::vector<const Frame*> framesIn(const Segment& s) const;
+  bool measured(const std::vector<const Frame*>& frames) const;
   HeadingMeasurement stillHeading(const Segment& s) const;
+  void detect(Frame& f) const;
 
   WheelRunOptions options_;
   std::unique_ptr<markers::TagDetector> detector_;
-  std::vector<Segment> segments_;
+  std::vector<Command> commands_;  // in stamp order
+  std::vector<Reading> readings_;  // in stamp order
+  std::vector<Frame> frames_;      // in stamp order
   EncoderTracker encoders_;
   int ticks_per_rev_ = 0;
 };

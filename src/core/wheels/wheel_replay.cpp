@@ -2,7 +2,10 @@
 // the recorded drives, the deadband fit on their encoder rates.
 #include "autocal/wheels/wheel_replay.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <limits>
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
@@ -18,7 +21,6 @@ constexpr double kZeroDuty = 1e-6;
 
 WheelReplay::WheelReplay(const WheelRunOptions& options) : options_(options) {
   options_.validate();
-  segments_.push_back(Segment());  // the robot stands until the first command
 }
 
 WheelReplay::~WheelReplay() = default;
@@ -32,87 +34,184 @@ WheelReplay::Kind WheelReplay::classify(const WheelDuties& d) {
 }
 
 void WheelReplay::addCommand(double stamp_s, const WheelDuties& duties) {
-  const Kind kind = classify(duties);
-  if (kind == segments_.back().kind) return;  // the same motion, commanded again
-  Segment& last = segments_.back();
-  if (last.kind == Kind::kForward || last.kind == Kind::kBack) last.drive.end_s = stamp_s;
-  Segment s;
-  s.kind = kind;
-  s.start_s = stamp_s;
-  s.start_left = encoders_.rawLeft();
-  s.start_right = encoders_.rawRight();
-  s.drive.duties = {std::abs(duties.left), std::abs(duties.right)};
-  s.drive.start_s = stamp_s;
-  segments_.push_back(std::move(s));
+  const Command c{stamp_s, classify(duties), duties};
+  if (commands_.empty() || stamp_s >= commands_.back().stamp_s) {
+    // The same motion commanded again adds nothing (the robot repeats its command at its rate).
+    if (commands_.empty() ? c.kind == Kind::kStill : c.kind == commands_.back().kind) return;
+    commands_.push_back(c);
+    return;
+  }
+  // Received after a later one: put in its place.
+  const auto at = std::upper_bound(commands_.begin(), commands_.end(), stamp_s,
+                                   [](double t, const Command& o) { return t < o.stamp_s; });
+  commands_.insert(at, c);
+  // Frames kept for a still that this command shows was none (or not yet settled).
+  const std::vector<Segment> all = segments();
+  frames_.erase(std::remove_if(frames_.begin(), frames_.end(),
+                               [&](const Frame& f) {
+                                 return !undecided(f.stamp_s) &&
+                                        !settledAt(segmentAt(all, f.stamp_s), f.stamp_s);
+                               }),
+                frames_.end());
 }
 
 void WheelReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
                               int ticks_per_revolution) {
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution must be > 0 ticks per revolution");
-  if (!encoders_.valid()) {
-    for (Segment& s : segments_) s.start_left = left_ticks, s.start_right = right_ticks;
-  }
   if (!encoders_.add(stamp_s, left_ticks, right_ticks).accepted) return;
   ticks_per_rev_ = ticks_per_revolution;
-  Segment& s = segments_.back();
-  if (s.kind == Kind::kForward || s.kind == Kind::kBack)
-    s.drive.samples.push_back({stamp_s, double(left_ticks), double(right_ticks)});
+  readings_.push_back({stamp_s, encoders_.left(), encoders_.right()});
 }
 
-bool WheelReplay::stillMeasured(const Segment& s) const {
+std::vector<WheelReplay::Segment> WheelReplay::segments(bool with_samples) const {
+  std::vector<Segment> out(1);  // the robot stands until the first command
+  out.back().start_s = -std::numeric_limits<double>::infinity();
+  for (const Command& c : commands_) {
+    if (c.kind == out.back().kind) continue;
+    out.back().end_s = c.stamp_s;
+    Segment s;
+    s.kind = c.kind;
+    s.start_s = c.stamp_s;
+    s.drive.duties = {std::abs(c.duties.left), std::abs(c.duties.right)};
+    s.drive.start_s = c.stamp_s;
+    out.push_back(std::move(s));
+  }
+  out.back().end_s = std::numeric_limits<double>::infinity();
+  for (Segment& s : out) {
+    if (!with_samples) break;
+    if (s.kind != Kind::kForward && s.kind != Kind::kBack) continue;
+    s.drive.end_s = s.end_s;
+    for (const Reading& r : readings_) {
+      if (r.stamp_s >= s.start_s && r.stamp_s < s.end_s) {
+        s.drive.samples.push_back({r.stamp_s, r.left, r.right});
+        s.drive.end_s = std::isfinite(s.end_s) ? s.end_s : r.stamp_s;
+      }
+    }
+  }
+  return out;
+}
+
+const WheelReplay::Segment& WheelReplay::segmentAt(const std::vector<Segment>& segments,
+                                                   double stamp_s) {
+  const auto after = std::upper_bound(segments.begin(), segments.end(), stamp_s,
+                                      [](double t, const Segment& s) { return t < s.start_s; });
+  return *std::prev(after);  // the first segment starts at -inf
+}
+
+const WheelReplay::Reading& WheelReplay::readingAt(double stamp_s) const {
+  const auto after = std::upper_bound(readings_.begin(), readings_.end(), stamp_s,
+                                      [](double t, const Reading& r) { return t < r.stamp_s; });
+  return after == readings_.begin() ? readings_.front() : *std::prev(after);
+}
+
+double WheelReplay::lastChangeAt(double stamp_s) const {
+  auto changed = std::upper_bound(readings_.begin(), readings_.end(), stamp_s,
+                                  [](double t, const Reading& r) { return t < r.stamp_s; });
+  if (changed == readings_.begin()) return std::numeric_limits<double>::infinity();
+  --changed;
+  while (changed != readings_.begin() && std::prev(changed)->left == changed->left &&
+         std::prev(changed)->right == changed->right)
+    --changed;
+  return changed->stamp_s;
+}
+
+bool WheelReplay::stillAt(double since_s, double stamp_s, double still_s) const {
+  if (readings_.empty() || stamp_s < readings_.front().stamp_s) return false;
+  const double latest_s = readingAt(stamp_s).stamp_s;
+  return latest_s >= since_s && latest_s - lastChangeAt(stamp_s) >= still_s;
+}
+
+bool WheelReplay::settledAt(const Segment& s, double stamp_s) const {
+  if (s.kind != Kind::kStill || stamp_s < s.start_s + options_.settle_s) return false;
+  return stamp_s >= s.start_s + kMaxSettleS || stillAt(s.start_s, stamp_s, options_.still_s);
+}
+
+bool WheelReplay::undecided(double stamp_s) const {
+  return commands_.empty() || stamp_s >= commands_.back().stamp_s;
+}
+
+std::vector<const WheelReplay::Frame*> WheelReplay::framesIn(const Segment& s) const {
+  std::vector<const Frame*> out;
+  for (const Frame& f : frames_)
+    if (f.stamp_s >= s.start_s && f.stamp_s < s.end_s && settledAt(s, f.stamp_s)) out.push_back(&f);
+  return out;
+}
+
+bool WheelReplay::measured(const std::vector<const Frame*>& frames) const {
   // WheelRun's rule: heading_frames frames with a tag, or max_frames_without_tags without. Before
   // detection, as many as the rule may need.
-  if (s.with_tags >= options_.heading_frames || s.without_tags >= options_.max_frames_without_tags)
-    return true;
-  const int most = options_.heading_frames + options_.max_frames_without_tags - 1;
-  return static_cast<int>(s.kept.size()) + s.with_tags + s.without_tags >= most;
+  int with_tags = 0, without_tags = 0, undetected = 0;
+  for (const Frame* f : frames) {
+    if (!f->detected)
+      ++undetected;
+    else if (measureHeading(f->sightings, options_.heading).valid)
+      ++with_tags;
+    else
+      ++without_tags;
+    if (with_tags >= options_.heading_frames || without_tags >= options_.max_frames_without_tags)
+      return true;
+  }
+  return with_tags + without_tags + undetected >=
+         options_.heading_frames + options_.max_frames_without_tags - 1;
 }
 
 bool WheelReplay::wantsFrame(double stamp_s) const {
-  const Segment& s = segments_.back();
-  if (s.kind != Kind::kStill || !encoders_.valid() || stillMeasured(s)) return false;
-  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(s.start_s, stamp_s,
-                                                                              encoders_);
+  if (readings_.empty()) return false;
+  const std::vector<Segment> all = segments();
+  const Segment& s = segmentAt(all, stamp_s);
+  if (settledAt(s, stamp_s) && !measured(framesIn(s))) return true;
+  if (!undecided(stamp_s) || !stillAt(s.start_s, stamp_s, options_.still_s)) return false;
+  // Past the latest command received, with the encoders still: the robot may stand in a still
+  // whose command is received later. The frame is kept (as many as a still may need since the
+  // wheels last moved) until the commands say where it belongs.
+  const double still_from_s = lastChangeAt(stamp_s);
+  int since = 0;
+  for (const Frame& f : frames_) since += f.stamp_s >= still_from_s;
+  return since < options_.heading_frames + options_.max_frames_without_tags - 1;
 }
 
-void WheelReplay::detectInto(Segment& s, const cv::Mat& image) {
-  std::vector<TagSighting> frame;
-  for (const auto& d : detector_->detect(image)) frame.push_back(sightTag(d, options_.mount));
-  if (s.with_tags >= options_.heading_frames || s.without_tags >= options_.max_frames_without_tags)
-    return;  // measured by the frames before (the kept ones exceed what the rule used)
-  if (measureHeading(frame, options_.heading).valid) {
-    ++s.with_tags;
-    s.frames.push_back(std::move(frame));
-  } else {
-    ++s.without_tags;
-  }
+void WheelReplay::detect(Frame& f) const {
+  for (const auto& d : detector_->detect(f.image))
+    f.sightings.push_back(sightTag(d, options_.mount));
+  f.detected = true;
+  f.image.release();
 }
 
 void WheelReplay::addFrame(double stamp_s, const cv::Mat& image) {
   if (!wantsFrame(stamp_s)) return;
   if (image.empty() || image.depth() != CV_8U)
     throw InputError("a frame must be a non-empty 8-bit image");
-  Segment& s = segments_.back();
-  if (detector_) {
-    detectInto(s, image);
-  } else {
-    s.kept.emplace_back(stamp_s, image.clone());
-  }
+  Frame f;
+  f.stamp_s = stamp_s;
+  f.image = image.clone();
+  if (detector_) detect(f);
+  const auto at = std::upper_bound(frames_.begin(), frames_.end(), stamp_s,
+                                   [](double t, const Frame& o) { return t < o.stamp_s; });
+  frames_.insert(at, std::move(f));
 }
 
 void WheelReplay::setIntrinsics(const CameraIntrinsics& intrinsics) {
   detector_ = makeFloorTagDetector(options_, intrinsics);
-  for (Segment& s : segments_) {
-    for (const auto& f : s.kept) detectInto(s, f.second);
-    s.kept.clear();
-    s.kept.shrink_to_fit();
-  }
+  for (Frame& f : frames_)
+    if (!f.detected) detect(f);
 }
 
 HeadingMeasurement WheelReplay::stillHeading(const Segment& s) const {
+  // The frames WheelRun's rule took, in stamp order: up to heading_frames with a tag, or up to
+  // max_frames_without_tags without.
   std::vector<TagSighting> all;
-  for (const auto& f : s.frames) all.insert(all.end(), f.begin(), f.end());
+  int with_tags = 0, without_tags = 0;
+  for (const Frame* f : framesIn(s)) {
+    if (with_tags >= options_.heading_frames || without_tags >= options_.max_frames_without_tags)
+      break;
+    if (measureHeading(f->sightings, options_.heading).valid) {
+      ++with_tags;
+      all.insert(all.end(), f->sightings.begin(), f->sightings.end());
+    } else {
+      ++without_tags;
+    }
+  }
   return measureHeading(all, options_.heading);
 }
 
@@ -122,19 +221,18 @@ WheelReplayResult WheelReplay::result() const {
   TrimEstimator estimator(options_.trim);
   MotorFitter fitter(motorFitOptions(options_));
   WheelReplayResult out;
-  const size_t n = segments_.size();
+  const std::vector<Segment> all = segments(true);
+  const size_t n = all.size();
   // The ticks where a drive ended: when the still after it ended (the robot had coasted to rest),
   // as WheelRun reads them once settled.
-  auto ticksAfter = [&](size_t i, bool left) {
-    if (i + 2 < n && segments_[i + 1].kind == Kind::kStill)
-      return left ? segments_[i + 2].start_left : segments_[i + 2].start_right;
-    if (i + 1 < n && segments_[i + 1].kind != Kind::kStill)
-      return left ? segments_[i + 1].start_left : segments_[i + 1].start_right;
-    return left ? encoders_.rawLeft() : encoders_.rawRight();
+  auto ticksAfter = [&](size_t i) {
+    if (i + 2 < n && all[i + 1].kind == Kind::kStill) return readingAt(all[i + 2].start_s).left;
+    if (i + 1 < n && all[i + 1].kind != Kind::kStill) return readingAt(all[i + 1].start_s).left;
+    return readings_.back().left;
   };
   bool last_forward_counted = false;
   for (size_t i = 0; i < n; ++i) {
-    const Segment& s = segments_[i];
+    const Segment& s = all[i];
     if (s.kind == Kind::kStill) {
       ++out.stills;
       if (stillHeading(s).valid) ++out.measured;
@@ -151,17 +249,18 @@ WheelReplayResult WheelReplay::result() const {
     // A forward drive of the iteration (paper §3.4) is driven back after the still that measures
     // it; the drive out of the tag field (§5.1) is not.
     last_forward_counted =
-        i + 2 < n && segments_[i + 1].kind == Kind::kStill && segments_[i + 2].kind == Kind::kBack;
+        i + 2 < n && all[i + 1].kind == Kind::kStill && all[i + 2].kind == Kind::kBack;
     if (!last_forward_counted) continue;
     ++out.drives;
     if (options_.compensate_deadband) fitter.addDrive(s.drive, ticks_per_rev_);
     if (estimator.converged()) continue;
-    const bool still_before = i > 0 && segments_[i - 1].kind == Kind::kStill;
+    const bool still_before = i > 0 && all[i - 1].kind == Kind::kStill;
     const HeadingMeasurement before =
-        still_before ? stillHeading(segments_[i - 1]) : HeadingMeasurement();
-    const HeadingMeasurement after = stillHeading(segments_[i + 1]);
+        still_before ? stillHeading(all[i - 1]) : HeadingMeasurement();
+    const HeadingMeasurement after = stillHeading(all[i + 1]);
     if (!before.valid || !after.valid) continue;  // WheelRun drives back without an update too
-    const double left_angle = (ticksAfter(i, true) - s.start_left) * 2 * M_PI / ticks_per_rev_;
+    const double left_angle =
+        (ticksAfter(i) - readingAt(s.start_s).left) * 2 * M_PI / ticks_per_rev_;
     estimator.addDrive(wrapAngle(after.heading_rad - before.heading_rad), left_angle);  // throws
   }
   if (out.drives == 0) {
@@ -184,19 +283,19 @@ WheelReplayResult WheelReplay::result() const {
 
 int WheelReplay::drives() const {
   int d = 0;
-  for (const Segment& s : segments_) d += s.kind == Kind::kForward || s.kind == Kind::kBack;
+  for (const Segment& s : segments()) d += s.kind == Kind::kForward || s.kind == Kind::kBack;
   return d;
 }
 
 int WheelReplay::stills() const {
   int d = 0;
-  for (const Segment& s : segments_) d += s.kind == Kind::kStill;
+  for (const Segment& s : segments()) d += s.kind == Kind::kStill;
   return d;
 }
 
 int WheelReplay::framesKept() const {
   int k = 0;
-  for (const Segment& s : segments_) k += static_cast<int>(s.kept.size());
+  for (const Frame& f : frames_) k += !f.detected;
   return k;
 }
 

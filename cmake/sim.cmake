@@ -4,10 +4,12 @@ target_sources(autocal_sim_core PRIVATE
   sim/src/camera_model.cpp
   sim/src/scene.cpp
   sim/src/renderer.cpp
-  sim/src/simulation.cpp)
+  sim/src/simulation.cpp
+  sim/src/transport.cpp)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sim_physics SOURCES test/sim/test_physics.cpp LIBS autocal_sim_core)
+  autocal_core_gtest(test_sim_transport SOURCES test/sim/test_transport.cpp LIBS autocal_sim_core)
 endif()
 
 if(CATKIN_ENABLE_TESTING)
@@ -37,6 +39,7 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/sim/sim_bad_config.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_viz.test DEPENDENCIES test_sim_node sim_node)
   add_rostest(test/sim/sim_fleet_frames.test DEPENDENCIES test_sim_node sim_node)
+  add_rostest(test/sim/sim_transport.test DEPENDENCIES test_sim_node sim_node)
 endif()
 
 # make bench: render time and real-time factor (ROS-free).

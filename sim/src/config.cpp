@@ -102,6 +102,32 @@ RobotConfig readRobot(YamlMap& m) {
   r.chassis_offset_x_m = m.optional<double>("chassis_offset_x_m", r.chassis_offset_x_m);
   r.caster_x_m = m.optional<double>("caster_x_m", r.caster_x_m);
   r.wheel_friction = positiveOr(m, "wheel_friction", r.wheel_friction);
+  for (const char* side : {"left", "right"}) {
+    const std::string b = std::string("breakaway_duty_") + side;
+    double& breakaway = side[0] == 'l' ? r.breakaway_duty_left : r.breakaway_duty_right;
+    breakaway = m.optional<double>(b, r.deadband);
+    if (!(breakaway >= r.deadband && breakaway < 1)) m.fail(b, "must be in [deadband, 1)");
+    const std::string g = std::string("backward_gain_ratio_") + side;
+    (side[0] == 'l' ? r.backward_gain_ratio_left : r.backward_gain_ratio_right) =
+        inRange(m, g, 1.0, 0.5, 2.0);
+  }
+  r.gain_drift_per_min = inRange(m, "gain_drift_per_min", 0.0, -0.05, 0.05);
+  if (m.has("transport")) {
+    YamlMap t = m.map("transport");
+    auto link = [&](const char* key, LinkConfig* l) {
+      if (!t.has(key)) return;
+      YamlMap k = t.map(key);
+      l->latency_s = inRange(k, "latency_s", 0.0, 0.0, 2.0);
+      l->jitter_s = inRange(k, "jitter_s", 0.0, 0.0, 1.0);
+      l->drop_probability = inRange(k, "drop_probability", 0.0, 0.0, 0.5);
+      k.finish();
+    };
+    link("camera", &r.transport.camera);
+    link("encoders", &r.transport.encoders);
+    link("range", &r.transport.range);
+    link("wheels_cmd", &r.transport.wheels_cmd);
+    t.finish();
+  }
   if (r.chassis_width_m < r.wheelbase * 0.5) {
     m.fail("chassis_width_m", "must be at least half the wheelbase");
   }

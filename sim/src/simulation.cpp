@@ -208,8 +208,17 @@ void Simulation::step() {
   // Motors: first-order lag towards the steady speed of the duty, integrated exactly.
   const double tau = robot_.motor_time_constant;
   const double blend = tau > 0 ? 1.0 - std::exp(-dt_s_ / tau) : 1.0;
+  const double drift = 1.0 + robot_.gain_drift_per_min * time_s_ / 60.0;
   for (int i = 0; i < 2; ++i) {
-    const double target = steadyWheelSpeed(duty_[i], gain_[i], robot_.motor_constant, robot_.deadband);
+    const double backward_ratio =
+        i == 0 ? robot_.backward_gain_ratio_left : robot_.backward_gain_ratio_right;
+    const double gain = gain_[i] * drift * (duty_[i] < 0 ? backward_ratio : 1.0);
+    double target = steadyWheelSpeed(duty_[i], gain, robot_.motor_constant, robot_.deadband);
+    // Static friction: a wheel at rest needs the breakaway duty to start; once turning, the
+    // running deadband holds.
+    const double breakaway =
+        std::max(robot_.deadband, i == 0 ? robot_.breakaway_duty_left : robot_.breakaway_duty_right);
+    if (wheel_speed_rad_s_[i] == 0.0 && std::abs(duty_[i]) <= breakaway) target = 0.0;
     wheel_speed_rad_s_[i] += (target - wheel_speed_rad_s_[i]) * blend;
     // A coasting wheel that has all but stopped is held by the gearbox's friction: the lag alone
     // lets it creep on, ever slower (the pose moves for about 0.6 s, until its steps fall below

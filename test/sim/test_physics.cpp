@@ -144,6 +144,60 @@ TEST(SimPhysics, MotorGainsScaleWheelSpeeds) {
   EXPECT_LT(sim.pose().yaw_rad, -0.05);
 }
 
+// Static friction: from rest a wheel needs its breakaway duty; once turning it runs on at a duty
+// between the deadband and the breakaway, at the running motor model's speed.
+TEST(SimPhysics, StaticFrictionNeedsTheBreakawayDutyToStartOnlyFromRest) {
+  RobotConfig r = idealRobot();
+  r.deadband = 0.08;
+  r.breakaway_duty_left = 0.12;
+  r.breakaway_duty_right = 0.08;  // none on the right
+  Simulation sim(r, emptyWorld(), SimulationOptions());
+  sim.setDuty(0.10, 0.10);
+  sim.advance(1.0);
+  EXPECT_EQ(sim.wheelAngle(Side::kLeft), 0.0) << "the left wheel broke away below its breakaway";
+  EXPECT_GT(sim.wheelAngle(Side::kRight), 0.1);
+  sim.setDuty(0.13, 0.10);
+  sim.advance(0.5);
+  EXPECT_GT(sim.wheelSpeed(Side::kLeft), 0.0);
+  sim.setDuty(0.10, 0.10);
+  sim.advance(1.0);
+  const double running = autocal::sim::steadyWheelSpeed(0.10, 1.0, r.motor_constant, r.deadband);
+  EXPECT_NEAR(sim.wheelSpeed(Side::kLeft), running, 1e-3 * running);
+  EXPECT_NEAR(sim.wheelSpeed(Side::kRight), running, 1e-3 * running);
+  // Stopped, it needs the breakaway again.
+  sim.setDuty(0.0, 0.0);
+  sim.advance(1.0);
+  ASSERT_EQ(sim.wheelSpeed(Side::kLeft), 0.0);
+  const double at_rest = sim.wheelAngle(Side::kLeft);
+  sim.setDuty(-0.11, 0.0);
+  sim.advance(1.0);
+  EXPECT_EQ(sim.wheelAngle(Side::kLeft), at_rest);
+}
+
+TEST(SimPhysics, BackwardGainRatioScalesOnlyBackwardDuties) {
+  RobotConfig r = idealRobot();
+  r.backward_gain_ratio_left = 0.9;
+  Simulation sim(r, emptyWorld(), SimulationOptions());
+  sim.setDuty(0.5, 0.5);
+  sim.advance(1.0);
+  EXPECT_NEAR(sim.wheelSpeed(Side::kLeft) / sim.wheelSpeed(Side::kRight), 1.0, 1e-6);
+  sim.setDuty(-0.5, -0.5);
+  sim.advance(1.0);
+  EXPECT_NEAR(sim.wheelSpeed(Side::kLeft) / sim.wheelSpeed(Side::kRight), 0.9, 1e-6);
+}
+
+TEST(SimPhysics, GainDriftsLinearlyWithSimulatedTime) {
+  RobotConfig r = idealRobot();
+  r.gain_drift_per_min = -0.03;  // a battery sagging 3 % a minute
+  Simulation sim(r, emptyWorld(), SimulationOptions());
+  sim.setDuty(0.5, 0.5);
+  sim.advance(1.0);
+  const double early = sim.wheelSpeed(Side::kLeft), early_t = sim.time_s();
+  sim.advance(29.0);
+  const double expected = (1 - 0.03 * sim.time_s() / 60) / (1 - 0.03 * early_t / 60);
+  EXPECT_NEAR(sim.wheelSpeed(Side::kLeft) / early, expected, 1e-3);
+}
+
 TEST(SimPhysics, WheelsFollowTheMotorTimeConstant) {
   const RobotConfig r = idealRobot();
   Simulation sim(r, emptyWorld(), SimulationOptions());

@@ -139,6 +139,44 @@ TEST(SimConfig, UnknownKeyIsAnErrorNamingFileLineAndKey) {
   EXPECT_NE(top.find("wheel_radius: unknown key"), std::string::npos) << top;
 }
 
+TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
+  const sim::RobotConfig ideal = defaultRobot();
+  EXPECT_EQ(ideal.breakaway_duty_left, ideal.deadband) << "robot.yaml's robot is ideal";
+  EXPECT_FALSE(ideal.transport.camera.active());
+  EXPECT_FALSE(ideal.transport.wheels_cmd.active());
+  const sim::RobotConfig real = sim::loadRobotConfig(kSource + "/sim/config/robot_real.yaml");
+  EXPECT_GT(real.breakaway_duty_left, real.deadband);
+  EXPECT_GT(real.breakaway_duty_right, real.deadband);
+  EXPECT_NE(real.backward_gain_ratio_left, 1.0);
+  EXPECT_LT(real.gain_drift_per_min, 0.0);
+  EXPECT_GE(real.transport.camera.latency_s, 0.05);
+  EXPECT_GT(real.transport.camera.drop_probability, 0.0);
+  EXPECT_GT(real.transport.encoders.latency_s, 0.0);
+  EXPECT_GT(real.transport.wheels_cmd.latency_s, 0.0);
+
+  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  // Without the keys: none of it.
+  std::string bare = replaced(base, "breakaway_duty_left: 0.08", "");
+  bare = replaced(bare, "  camera: {latency_s: 0.0, jitter_s: 0.0, drop_probability: 0.0}", "");
+  const sim::RobotConfig r = sim::parseRobotConfig(bare, "robot.yaml");
+  EXPECT_EQ(r.breakaway_duty_left, r.deadband);
+  EXPECT_FALSE(r.transport.camera.active());
+  EXPECT_NE(robotError(replaced(base, "breakaway_duty_left: 0.08", "breakaway_duty_left: 0.05"))
+                .find("breakaway_duty_left: must be in [deadband"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "camera: {latency_s: 0.0,", "camera: {latency_ms: 0.0,"))
+                .find("transport.camera.latency_ms: unknown key"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "  range: {latency_s: 0.0", "  rnge: {latency_s: 0.0"))
+                .find("transport.rnge: unknown key"),
+            std::string::npos);
+  EXPECT_NE(robotError(
+                replaced(base, "wheels_cmd: {latency_s: 0.0, jitter_s: 0.0, drop_probability: 0.0}",
+                         "wheels_cmd: {drop_probability: 0.9}"))
+                .find("drop_probability: must be in"),
+            std::string::npos);
+}
+
 TEST(SimConfig, MalformedOrMissingValuesAreErrors) {
   const std::string base = slurp(kSource + "/sim/config/robot.yaml");
   EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: abc")).find("wheelbase: expected a number, got 'abc'"),

@@ -327,6 +327,102 @@ TEST(SimNode, PublishesTheWorldAndTheTruePathForRviz) {
   }
 }
 
+/// Each message's delay: the sim time it arrived at less its header stamp.
+struct DelayLog {
+  std::vector<double> stamps, delays;
+  template <class M>
+  ros::Subscriber track(ros::NodeHandle& nh, const std::string& topic) {
+    return nh.subscribe<M>(topic, 2000, [this](const boost::shared_ptr<const M>& m) {
+      stamps.push_back(m->header.stamp.toSec());
+      delays.push_back(ros::Time::now().toSec() - m->header.stamp.toSec());
+    });
+  }
+  double median() const {
+    std::vector<double> d = delays;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    return d[d.size() / 2];
+  }
+  bool ordered() const { return std::is_sorted(stamps.begin(), stamps.end()); }
+};
+
+// Robot mode with robot_real.yaml's transport: every message arrives its link's latency after its
+// capture stamp, in order; frames are lost at the link's rate; a command moves the wheels its
+// link's latency after it was sent (on the ground truth). At real_time_factor 1, on sim time.
+TEST(SimNode, MessagesArriveLateWithTheirCaptureStampsInOrder) {
+  const autocal::sim::RobotConfig robot =
+      autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));
+  ASSERT_TRUE(robot.transport.camera.active()) << "the test needs a robot with late messages";
+  ros::NodeHandle nh(testParam<std::string>("veh"));
+  DelayLog left, info, range;
+  std::vector<ros::Subscriber> subs{
+      left.track<WheelEncoderStamped>(nh, "left_wheel_encoder_node/tick"),
+      info.track<sensor_msgs::CameraInfo>(nh, "camera_node/camera_info"),
+      range.track<sensor_msgs::Range>(nh, "front_center_tof_driver_node/range")};
+  std::vector<nav_msgs::Odometry> truth;
+  subs.push_back(nh.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 10000,
+      [&](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); }));
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        for (const auto& sub : subs)
+          if (sub.getNumPublishers() == 0) return false;
+        return true;
+      },
+      60.0));
+  ros::Publisher cmd_pub = nh.advertise<WheelsCmdStamped>("wheels_driver_node/wheels_cmd", 10);
+  ASSERT_TRUE(spinUntil([&] { return cmd_pub.getNumSubscribers() > 0; }, 30.0));
+  ASSERT_TRUE(spinUntilSimTime(1.0, 60.0));
+  // Commands: five pulses from rest; the first ground-truth sample that moves after each.
+  std::vector<double> command_delays;
+  for (int i = 0; i < 5; ++i) {
+    const double sent = ros::Time::now().toSec();
+    command(cmd_pub, 0.5f, 0.5f);
+    double moved = NAN;
+    ASSERT_TRUE(spinUntil(
+        [&] {
+          for (const auto& o : truth)
+            if (o.header.stamp.toSec() > sent && std::abs(o.twist.twist.linear.x) > 1e-3) {
+              moved = o.header.stamp.toSec();
+              return true;
+            }
+          return false;
+        },
+        10.0));
+    command_delays.push_back(moved - sent);
+    command(cmd_pub, 0.0f, 0.0f);
+    const double stop = ros::Time::now().toSec();
+    ASSERT_TRUE(spinUntilSimTime(stop + 0.5, 10.0));
+    truth.clear();
+  }
+  ASSERT_TRUE(spinUntilSimTime(6.0, 60.0));
+
+  const double truth_period_s = 1.0 / testParam<double>("ground_truth_rate_hz");
+  const double clock_s = testParam<double>("clock_period_s");
+  struct Link {
+    const char* name;
+    const DelayLog& log;
+    const autocal::sim::LinkConfig& config;
+  };
+  for (const Link& l : {Link{"encoders", left, robot.transport.encoders},
+                        Link{"camera", info, robot.transport.camera},
+                        Link{"range", range, robot.transport.range}}) {
+    ASSERT_GT(l.log.delays.size(), 20u) << l.name;
+    EXPECT_TRUE(l.log.ordered()) << l.name << ": a message overtook another";
+    // The median delay: the latency, to the clock's resolution and the subscriber's own lag.
+    EXPECT_GT(l.log.median(), l.config.latency_s - 0.5 * l.config.jitter_s) << l.name;
+    EXPECT_LT(l.log.median(), l.config.latency_s + 0.5 * l.config.jitter_s + clock_s + 0.01)
+        << l.name;
+  }
+  // Frames (with their camera_info) lost at the camera link's rate, over the run so far.
+  const double frames = info.stamps.size(), expected = robot.camera.rate_hz * info.stamps.back();
+  EXPECT_NEAR(frames / expected, 1.0 - robot.transport.camera.drop_probability, 0.08);
+  std::sort(command_delays.begin(), command_delays.end());
+  const double command_median = command_delays[2];
+  EXPECT_GT(command_median, robot.transport.wheels_cmd.latency_s - robot.transport.wheels_cmd.jitter_s);
+  EXPECT_LT(command_median, robot.transport.wheels_cmd.latency_s +
+                                robot.transport.wheels_cmd.jitter_s + truth_period_s + clock_s + 0.01);
+}
+
 TEST(SimNode, MovesOnWheelsCmdAndTheWatchdogStopsIt) {
   const autocal::sim::RobotConfig robot =
       autocal::sim::loadRobotConfig(testParam<std::string>("robot_config"));

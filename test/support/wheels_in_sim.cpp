@@ -3,11 +3,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <random>
 
 #include "autocal/errors.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
+#include "autocal/sim/transport.h"
 
 namespace autocal {
 namespace test {
@@ -33,6 +35,13 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
   size_t last_iterations = 0;
   RecordingTap* tap = options.tap;
   std::string last_phase;
+  // The robot's links (RobotConfig::transport), as sim_node has them: a reading or frame is
+  // delivered (and the frame rendered, from the pose history) at its release time, with its
+  // capture stamp; a command reaches the motors late.
+  using Delivery = std::function<void(double now_s)>;
+  sim::DelayQueue<Delivery> encoder_link(robot.transport.encoders, options.seed * 8 + 4);
+  sim::DelayQueue<Delivery> camera_link(robot.transport.camera, options.seed * 8 + 3);
+  sim::DelayQueue<WheelDuties> command_link(robot.transport.wheels_cmd, options.seed * 8 + 7);
   try {
     while (simulation.time_s() < options.max_sim_s && !run.done()) {
       const double t = simulation.time_s();
@@ -43,14 +52,17 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
       if (t >= next_encoder) {
         const int left = simulation.encoderTicks(sim::Side::kLeft);
         const int right = simulation.encoderTicks(sim::Side::kRight);
-        run.addEncoders(t, left, right, robot.encoder_resolution, t);
-        if (tap) tap->encoders(t, left, right, robot.encoder_resolution);
+        encoder_link.push(t, [&, t, left, right](double now) {
+          run.addEncoders(t, left, right, robot.encoder_resolution, now);
+          if (tap) tap->encoders(t, left, right, robot.encoder_resolution);
+        });
         next_encoder += encoder_dt;
       }
       if (t >= next_frame) {
-        run.noteFrameArrived(t);
-        const bool run_wants = run.wantsFrame(t), tap_wants = tap && tap->wantsFrame(t);
-        if (run_wants || tap_wants) {
+        camera_link.push(t, [&, t](double now) {
+          run.noteFrameArrived(now);
+          const bool run_wants = run.wantsFrame(t), tap_wants = tap && tap->wantsFrame(t);
+          if (!run_wants && !tap_wants) return;
           const cv::Mat image =
               renderer.render(simulation.exposurePoses(t, options.max_blur_samples), rng);
           if (run_wants) {
@@ -58,9 +70,11 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
             ++out.frames_processed;
           }
           if (tap_wants) tap->frame(t, image);
-        }
+        });
         next_frame += frame_dt;
       }
+      for (const Delivery& deliver : encoder_link.due(t)) deliver(t);
+      for (const Delivery& deliver : camera_link.due(t)) deliver(t);
       const WheelDuties d = run.update(t);
       if (tap) {
         const std::string phase = std::string("wheels/") + wheels::name(run.stage());
@@ -68,7 +82,8 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
         last_phase = phase;
         tap->command(t, d);
       }
-      simulation.setDuty(d.left, d.right);
+      command_link.push(t, d);
+      for (const WheelDuties& c : command_link.due(t)) simulation.setDuty(c.left, c.right);
       simulation.advance(control_dt);
       if (options.trace &&
           (run.stage() != last_stage || run.estimator().history().size() != last_iterations)) {

@@ -5,7 +5,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <deque>
 #include <cstdlib>
 #include <deque>
 
@@ -200,6 +199,27 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   // Started alone, without the camera stage's minimum duties: the offsets start at 0.
   const sim::RobotConfig robot = variant(1.0, 1.08, 0.0325, 0.0318, 0.1);
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld());
+}
+
+/// What a real Duckiebot adds (DESIGN ranges): static friction above the running deadband, frames
+/// 0.1 s late with jitter and one in ten lost, encoder readings and commands 30 ms late.
+sim::RobotConfig withRobotReality(sim::RobotConfig r) {
+  r.breakaway_duty_left = r.deadband + 0.02;
+  r.breakaway_duty_right = r.deadband + 0.03;
+  r.transport.camera = {0.1, 0.02, 0.1};
+  r.transport.encoders = {0.03, 0.01, 0.0};
+  r.transport.wheels_cmd = {0.03, 0.01, 0.0};
+  return r;
+}
+
+TEST(WheelRunInSim, LateMessagesStaticFrictionAndLostFrames) {
+  const sim::RobotConfig robot = withRobotReality(robotConfig("robot.yaml"));
+  // The camera stage's probe finds the breakaway duties (to its 0.01 step), which the wheel node
+  // takes as its guesses.
+  const wheels::DeadbandGuesses g = wheels::deadbandGuesses(
+      robot.breakaway_duty_left + 0.01, robot.breakaway_duty_right + 0.01, 0.01);
+  expectCalibrated(calibrateAndValidate(robot, defaultWorld(), g.left, false, nullptr, g.right),
+                   defaultWorld());
 }
 
 // The passive replay (replay.launch's wheel stage) recomputes the live run from what a recording

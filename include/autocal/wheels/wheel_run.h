@@ -252,6 +252,11 @@ class WheelRun {
   int align_steps_ = 0;
   double search_turned_rad_ = 0;
   int pulse_ticks_ = 1;
+  double last_frame_arrival_s_ = -1e300;  ///< on the caller's clock
+  /// The pulse's ticks less the wheel's measured turn past the end of a pulse (an average).
+  int pulse_stop_ticks_ = 1;
+  double pulse_overshoot_ticks_ = 0;
+  bool overshoot_measured_ = false, pulse_by_ticks_ = false;
   int pulse_dir_ = 0;  // +1 ccw, -1 cw
   int pulse_start_right_ = 0;
   double turn_duty_boost_ = 0;

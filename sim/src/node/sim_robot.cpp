@@ -44,7 +44,13 @@ SimRobot::SimRobot(ros::NodeHandle nh, const SimNodeOptions& options, const std:
       tf_(tf),
       static_tf_(static_tf),
       camera_rng_(0),
-      range_rng_(0) {
+      range_rng_(0),
+      // Every random source has its own seed derived from the robot's seed.
+      camera_link_(robot.transport.camera, static_cast<uint64_t>(seed) * 8 + 3),
+      left_encoder_link_(robot.transport.encoders, static_cast<uint64_t>(seed) * 8 + 4),
+      right_encoder_link_(robot.transport.encoders, static_cast<uint64_t>(seed) * 8 + 5),
+      range_link_(robot.transport.range, static_cast<uint64_t>(seed) * 8 + 6),
+      wheels_cmd_link_(robot.transport.wheels_cmd, static_cast<uint64_t>(seed) * 8 + 7) {
   SimulationOptions sim_options;
   sim_options.physics_rate_hz = options_.physics_rate_hz;
   sim_ = std::make_unique<Simulation>(robot_, world_, sim_options);
@@ -97,6 +103,7 @@ bool SimRobot::behind() const {
 }
 
 void SimRobot::step() {
+  for (const WheelDuties& d : wheels_cmd_link_.due(sim_->time_s())) sim_->setDuty(d.left, d.right);
   sim_->step();
   if (!watchdog_stopped_ && sim_->time_s() - last_cmd_s_ > options_.wheels_cmd_timeout_s) {
     sim_->setDuty(0.0, 0.0);
@@ -114,7 +121,17 @@ bool SimRobot::publishDue() {
     publishGroundTruth();
     publishTruePath();
   }
-  return renderer_ && camera_.due(t, dt) && beginFrame(t);
+  const bool render = renderer_ && camera_.due(t, dt) && beginFrame(t);
+  releaseDue();
+  return render;
+}
+
+void SimRobot::releaseDue() {
+  const double t = sim_->time_s();
+  for (DelayQueue<Send>* link :
+       {&left_encoder_link_, &right_encoder_link_, &range_link_, &camera_link_}) {
+    for (const Send& send : link->due(t)) send();
+  }
 }
 
 void SimRobot::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
@@ -130,7 +147,7 @@ void SimRobot::onWheelsCmd(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
     left = std::clamp(left, -1.0, 1.0);
     right = std::clamp(right, -1.0, 1.0);
   }
-  sim_->setDuty(left, right);
+  wheels_cmd_link_.push(sim_->time_s(), WheelDuties{left, right});  // on its way to the motors
   last_cmd_s_ = sim_->time_s();
   watchdog_stopped_ = false;
   have_cmd_ = true;
@@ -143,8 +160,10 @@ void SimRobot::publishEncoders() {
                                  robot_.encoder_resolution};
     const std::string frame =
         vehicle_ + (side == Side::kLeft ? "/left_wheel_axis" : "/right_wheel_axis");
-    (side == Side::kLeft ? left_tick_pub_ : right_tick_pub_)
-        .publish(ros_layer::toEncoderMsg(reading, frame));
+    ros::Publisher& pub = side == Side::kLeft ? left_tick_pub_ : right_tick_pub_;
+    (side == Side::kLeft ? left_encoder_link_ : right_encoder_link_)
+        .push(reading.stamp_s,
+              [&pub, msg = ros_layer::toEncoderMsg(reading, frame)] { pub.publish(msg); });
   }
 }
 
@@ -158,20 +177,24 @@ void SimRobot::publishRange() {
   msg.min_range = static_cast<float>(s.min_range_m);
   msg.max_range = static_cast<float>(s.max_range_m);
   msg.range = static_cast<float>(sim_->measureRange(range_rng_));
-  range_pub_.publish(msg);
+  range_link_.push(sim_->time_s(), [this, msg] { range_pub_.publish(msg); });
 }
 
 bool SimRobot::beginFrame(double capture_s) {
   frame_compressed_ = compressed_pub_.getNumSubscribers() > 0;
   frame_raw_ = image_pub_.getNumSubscribers() > 0;
   frame_capture_s_ = capture_s;
-  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * robot_.camera.exposure_s);  // mid-exposure
+  const ros::Time t =
+      ros_layer::toRosTime(capture_s - 0.5 * robot_.camera.exposure_s);  // mid-exposure
   sensor_msgs::CameraInfo info = ros_layer::toCameraInfo(robot_.camera.nominal);
   info.header.stamp = t;
   info.header.frame_id = camera_frame_;
-  camera_info_pub_.publish(info);
+  frame_info_ = info;
   frame_jpeg_.header = frame_image_.header = info.header;
-  return frame_compressed_ || frame_raw_;  // nobody looks: skip the rendering
+  if (frame_compressed_ || frame_raw_) return true;
+  // Nobody looks: no rendering, camera_info alone.
+  camera_link_.push(capture_s, [this, info] { camera_info_pub_.publish(info); });
+  return false;
 }
 
 void SimRobot::renderFrame() {
@@ -192,8 +215,17 @@ void SimRobot::renderFrame() {
 }
 
 void SimRobot::publishFrame() {
-  if (frame_compressed_) compressed_pub_.publish(frame_jpeg_);
-  if (frame_raw_) image_pub_.publish(frame_image_);
+  // The frame and its camera_info travel (and are lost) together.
+  Send send = [this, info = frame_info_,
+               jpeg = frame_compressed_ ? frame_jpeg_ : sensor_msgs::CompressedImage(),
+               raw = frame_raw_ ? frame_image_ : sensor_msgs::Image(),
+               compressed = frame_compressed_, has_raw = frame_raw_] {
+    camera_info_pub_.publish(info);
+    if (compressed) compressed_pub_.publish(jpeg);
+    if (has_raw) image_pub_.publish(raw);
+  };
+  camera_link_.push(frame_capture_s_, std::move(send));
+  releaseDue();
 }
 
 void SimRobot::publishGroundTruth() {

@@ -6,17 +6,21 @@
 #pragma once
 
 #include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
-#include <ros/ros.h>
 
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
 
+#include "autocal/sensors.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
+#include "autocal/sim/transport.h"
 #include "autocal_ros/msgs.h"
 
 namespace tf2_ros {
@@ -82,6 +86,8 @@ class SimRobot {
   /// Publishes camera_info for a frame captured at capture_s; true when it is to be rendered.
   bool beginFrame(double capture_s);
   void publishGroundTruth();
+  /// Publishes the messages whose transport delay (RobotConfig::transport) has passed.
+  void releaseDue();
   void publishTruePath();
 
   ros::NodeHandle nh_;
@@ -105,8 +111,13 @@ class SimRobot {
   /// The frame due: its capture time, which topics want it, and its messages once rendered.
   double frame_capture_s_ = 0;
   bool frame_compressed_ = false, frame_raw_ = false;
+  sensor_msgs::CameraInfo frame_info_;
   sensor_msgs::CompressedImage frame_jpeg_;
   sensor_msgs::Image frame_image_;
+  /// The robot's links (RobotConfig::transport): messages wait here for their release time.
+  using Send = std::function<void()>;
+  DelayQueue<Send> camera_link_, left_encoder_link_, right_encoder_link_, range_link_;
+  DelayQueue<WheelDuties> wheels_cmd_link_;
   double last_cmd_s_ = -1e9;
   bool watchdog_stopped_ = true;
   bool have_cmd_ = false, lockstep_released_ = false;

@@ -15,6 +15,9 @@ namespace {
 /// Silence counts only over this many updates in a row without a message: a node that was not
 /// scheduled for a while is not mistaken for a dead sensor.
 constexpr int kSilentUpdates = 10;
+/// A turning pulse ends early by the wheel's measured turn past its end once that is this many
+/// ticks or more (a robot whose commands and readings come late).
+constexpr double kPulseOvershootTicks = 4.0;
 /// The largest share of a forward drive by which a drive back is lengthened or shortened to make
 /// up for where the earlier cycles left the robot (WheelRun::onMeasured).
 constexpr double kMaxCreepShare = 0.25;
@@ -136,7 +139,8 @@ void WheelRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
 
 void WheelRun::noteEncodersArrived(double) { updates_without_encoders_ = 0; }
 
-void WheelRun::noteFrameArrived(double) {
+void WheelRun::noteFrameArrived(double now_s) {
+  last_frame_arrival_s_ = now_s;
   have_frame_ = true;
   updates_without_frames_ = 0;
 }
@@ -234,6 +238,14 @@ void WheelRun::startPulse(double turn_rad) {
   const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
   pulse_ticks_ =
       std::max(1, static_cast<int>(std::lround(wheel_rad * ticks_per_rev_ / (2 * M_PI))));
+  // The wheel turns on past the tick the pulse ends at: the command reaches the motor late, the
+  // encoder reading comes late, and the wheel coasts. The pulse ends that many ticks early, as
+  // the steps before measured it.
+  // A tick or two of coasting is no lag worth it (kPulseOvershootTicks).
+  const int early = pulse_overshoot_ticks_ >= kPulseOvershootTicks
+                        ? static_cast<int>(std::lround(pulse_overshoot_ticks_))
+                        : 0;
+  pulse_stop_ticks_ = std::max(1, pulse_ticks_ - early);
   startMotionClock(options_.max_pulse_s);
   purpose_ = Purpose::kAlign;
 }
@@ -446,6 +458,14 @@ void WheelRun::onSettled(double now_s) {
       const double phi = (encoders_.rawRight() - pulse_start_right_) * 2 * M_PI / ticks_per_rev_;
       const double turned =
           std::abs(options_.kinematics.radius * phi / options_.kinematics.baseline);
+      if (pulse_by_ticks_) {
+        const double past = std::abs(encoders_.rawRight() - pulse_start_right_) - pulse_stop_ticks_;
+        pulse_overshoot_ticks_ =
+            overshoot_measured_ ? 0.5 * (pulse_overshoot_ticks_ + past) : std::max(0.0, past);
+        pulse_overshoot_ticks_ = std::max(0.0, pulse_overshoot_ticks_);
+        overshoot_measured_ = true;
+      }
+      pulse_by_ticks_ = false;
       if (encoders_.rawRight() == pulse_start_right_) {
         turn_duty_boost_ += 0.02;  // the wheel did not move: the guessed deadband was too low
       }
@@ -498,7 +518,7 @@ WheelDuties WheelRun::update(double now_s) {
   ++updates_without_frames_;
   ++updates_without_encoders_;
   if (updates_without_frames_ > kSilentUpdates &&
-      now_s - measure_from_s_ > options_.camera_timeout_s &&
+      now_s - std::max(last_frame_arrival_s_, measure_from_s_) > options_.camera_timeout_s &&
       (motion_ == Motion::kMeasure || stage_ == WheelRunStage::kLeave)) {
     fail("the camera went silent for more than camera_timeout_s " +
          formatNumber(options_.camera_timeout_s, 3) + " s");
@@ -520,8 +540,10 @@ WheelDuties WheelRun::update(double now_s) {
   switch (motion_) {
     case Motion::kPulse:
       if (now_s >= motion_end_s_ ||
-          std::abs(encoders_.rawRight() - pulse_start_right_) >= pulse_ticks_)
+          std::abs(encoders_.rawRight() - pulse_start_right_) >= pulse_stop_ticks_) {
+        pulse_by_ticks_ = now_s < motion_end_s_;
         stopMotion(now_s);
+      }
       break;
     case Motion::kDrive:
       if (stage_ == WheelRunStage::kLeave) {

@@ -9,6 +9,7 @@
 #include "autocal/camera_intrinsics.h"
 #include "autocal/distortion_model.h"
 #include "autocal/pose2d.h"
+#include "autocal/sim/transport.h"
 
 namespace autocal {
 namespace sim {
@@ -44,6 +45,14 @@ struct RangeSensorConfig {
   int rays = 9;  ///< rays cast across the cone; the reading is the nearest hit
 };
 
+/// How late the robot's messages arrive, and which are lost (robot YAML `transport:`).
+struct TransportConfig {
+  LinkConfig camera;      ///< a frame (and its camera_info) from exposure to the subscriber
+  LinkConfig encoders;    ///< each wheel's encoder reading
+  LinkConfig range;       ///< the range sensor's reading
+  LinkConfig wheels_cmd;  ///< a wheels_cmd from its publisher to the motors
+};
+
 struct RobotConfig {
   double wheel_radius_left = 0.0318;   ///< [m] true radius
   double wheel_radius_right = 0.0318;  ///< [m]
@@ -61,6 +70,15 @@ struct RobotConfig {
   double chassis_offset_x_m = -0.03;   ///< chassis centre ahead of the axle (negative: behind)
   double caster_x_m = -0.1;            ///< caster ahead of the axle (negative: behind)
   double wheel_friction = 0.8;         ///< traction limit = friction x normal load
+  /// Static friction: a wheel at rest starts only above this |duty| (>= deadband); once turning
+  /// it runs down to the deadband. Negative: the deadband (no static friction).
+  double breakaway_duty_left = -1.0;
+  double breakaway_duty_right = -1.0;
+  double backward_gain_ratio_left = 1.0;  ///< gain backward / gain forward of each motor
+  double backward_gain_ratio_right = 1.0;
+  /// Relative change of both motors' gains per minute of simulated time (battery, temperature).
+  double gain_drift_per_min = 0.0;
+  TransportConfig transport;
   CameraConfig camera;
   RangeSensorConfig range_sensor;
 };

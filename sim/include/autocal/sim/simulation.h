@@ -6,7 +6,9 @@
 // through impulses at their contact points that make the contact point roll without slipping,
 // sideways or lengthwise, up to the wheel's traction limit (friction x normal load): the body
 // velocity is never set directly, so collisions with walls, board stands and obstacles push back
-// and a wheel that cannot grip slips (its encoder still counts its rotation).
+// and a wheel that cannot grip slips (its encoder still counts its rotation). What a real motor
+// adds is optional (RobotConfig): static friction (a breakaway duty above the running deadband,
+// from rest), a gain that differs backward, and a gain that drifts with time.
 #pragma once
 
 #include <Eigen/Core>

@@ -201,19 +201,12 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld());
 }
 
-/// What a real Duckiebot adds (DESIGN ranges): static friction above the running deadband, frames
-/// 0.1 s late with jitter and one in ten lost, encoder readings and commands 30 ms late.
-sim::RobotConfig withRobotReality(sim::RobotConfig r) {
-  r.breakaway_duty_left = r.deadband + 0.02;
-  r.breakaway_duty_right = r.deadband + 0.03;
-  r.transport.camera = {0.1, 0.02, 0.1};
-  r.transport.encoders = {0.03, 0.01, 0.0};
-  r.transport.wheels_cmd = {0.03, 0.01, 0.0};
-  return r;
-}
-
-TEST(WheelRunInSim, LateMessagesStaticFrictionAndLostFrames) {
-  const sim::RobotConfig robot = withRobotReality(robotConfig("robot.yaml"));
+// robot_real.yaml: static friction above the running deadband, a sagging battery, frames 0.1 s
+// late with jitter and one in ten lost, encoder readings and commands 30 ms late.
+TEST(WheelRunInSim, RealRobotLateMessagesStaticFrictionLostFrames) {
+  const sim::RobotConfig robot = robotConfig("robot_real.yaml");
+  ASSERT_GT(robot.breakaway_duty_left, robot.deadband);
+  ASSERT_TRUE(robot.transport.camera.active());
   // The camera stage's probe finds the breakaway duties (to its 0.01 step), which the wheel node
   // takes as its guesses.
   const wheels::DeadbandGuesses g = wheels::deadbandGuesses(

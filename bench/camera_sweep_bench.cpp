@@ -68,11 +68,12 @@ int main(int argc, char** argv) {
                         {"fleet/robot_narrow.yaml", "world.yaml"},
                         {"fleet/robot_p95.yaml", "world_boards_b.yaml"},
                         {"robot.yaml", "world_boards_b.yaml"}};
-  std::printf("## Camera stage: the robot's own sweep (issue 9)\n\n");
+  std::printf("### The camera stage's sweep\n\n");
   std::printf(
-      "camera::SweepRun on the simulator's core (no ROS), one thread: probe, sweep, calibration. "
-      "Errors against the simulator's true lens: the larger of fx, fy [%%] / the principal point "
-      "[px] / k1. Plain OpenCV = cv::calibrateCamera, k1 k2 p1 p2 k3, no outlier handling.\n\n");
+      "`camera::SweepRun` on the simulator's core (no ROS), one thread: probe, sweep, calibration. "
+      "Errors\nagainst the simulator's true lens: the larger of fx, fy [%%] / the principal point "
+      "[px] / k1. Plain\nOpenCV = `cv::calibrateCamera`, k1 k2 p1 p2 k3, no outlier "
+      "handling.\n\n");
   std::printf(
       "| robot | world | sweep sim s | sweep wall s | steps | frames | kept / sharp views | "
       "frame ms median / max | autocal | plain, own start, sharp views | plain, camera_info "

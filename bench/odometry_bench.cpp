@@ -37,7 +37,7 @@ double emaxWith(const test::OdometryTestRobot& r, const odometry::DiffDriveParam
 }  // namespace
 
 int main() {
-  std::printf("## Odometry calibration: UAH vs UMBmark (issue 11)\n\n");
+  std::printf("### UAH vs UMBmark\n\n");
   std::printf(
       "Both methods driven by the robot itself on the simulator's core (no ROS; the node's 50 Hz "
       "loop, a command one cycle late), per robot, from the nominal Duckietown radius and "
@@ -108,10 +108,10 @@ int main() {
       "line; UMBmark: the squares, which wander as an uncorrected robot's heading drifts between "
       "runs). UMBmark measures no absolute scale: its wheelbase and distances per pulse keep the "
       "nominal mean distance per pulse, so their errors include the nominal radius's own error "
-      "(Ed, and the wheelbase in pulses, Eb, are what it determines: see "
-      "`test_umbmark_run_in_sim`). "
+      "(Ed, and the wheelbase in pulses, Eb, are what it determines). "
       "\"E_max,syst after its correction\": a fresh UMBmark run (5 squares each way) on the "
-      "odometry each method wrote; \"nominal\": before any correction. Reproduce: `make build && "
-      "taskset -c 0 build/bench/odometry_bench`.\n");
+      "odometry each method wrote; \"nominal\": before any correction.\n\n"
+      "Reproduce: `make build && taskset -c 0 build/bench/odometry_bench` (or "
+      "`scripts/bench/odometry.sh`).\n");
   return 0;
 }

@@ -136,16 +136,17 @@ int main(int argc, char** argv) {
     RenderOptions options;
     options.supersampling = robot.camera.supersampling;
     options.noise_sigma = robot.camera.noise_sigma;
-    // The code path before issue 13: every frame rendered anew, every pose's blends added.
+    // The shortcuts off: every frame rendered anew, every pose's blends added.
     RenderOptions today = options;
     today.still_reuse_px = -1;
     today.blur_block_sums = false;
     today.blur_half_res_poses = 0;
     today.edge_samples_on_plane = false;
 
-    // Render time: still frames at headings all around the start (boards in view or not), today's
-    // renderer and now's alternately on the same pose, so that the machine's load hits both alike.
-    // [k][path]: k = 0 supersampling as configured, 1 supersampling 1; path 0 today, 1 now.
+    // Render time: still frames at headings all around the start (boards in view or not), the
+    // renderer with its shortcuts off and on alternately on the same pose, so that the machine's
+    // load hits both alike. [k][path]: k = 0 supersampling as configured, 1 supersampling 1;
+    // path 0 shortcuts off, 1 the default.
     std::vector<double> ms_by_ss[2][2];
     const int supersampling[2] = {robot.camera.supersampling, 1};
     for (int k = 0; k < 2; ++k) {
@@ -194,7 +195,7 @@ int main(int argc, char** argv) {
         }
       }
     }
-    // A motion-blurred frame: 8 poses over the exposure of a pivot at ~2 rad/s; today's and now's
+    // A motion-blurred frame: 8 poses over the exposure of a pivot at ~2 rad/s; shortcuts off and on
     // renderer alternately, the best of 3 per frame.
     std::vector<double> ms_blur[2];
     {
@@ -223,8 +224,6 @@ int main(int argc, char** argv) {
     const char* motion_names[] = {"stop-and-shoot sweep (0.1 s one-wheel pulses at duty 0.3, 0.6 s still)",
                                   "straight drives (duty -0.3 for 2 s, still 1 s, +0.3 for 2 s, still 1 s)",
                                   "continuous driving (pivots and straight runs at duty 0.4-0.5, 2 s each; 2 of 12 s still)"};
-    const char* short_names[] = {"stop-and-shoot sweep", "straight drives", "continuous driving"};
-    const char* targets[] = {">= 10", ">= 10", ">= 3"};
     RunStats before[3], after[3];
     for (int m = 0; m < 3; ++m) {
       before[m] = run(robot, world, &today, motions[m], sim_s, /*hold_stopped_wheels=*/false);
@@ -237,85 +236,71 @@ int main(int argc, char** argv) {
       for (double x : v) s += x;
       return s / v.size();
     };
-    std::printf("## Simulator (issues 2 and 13)\n\n");
+    // The section's heading is scripts/bench.sh's ("## Simulator and renderer").
     std::printf(
         "`build/bench/sim_bench` on one core (`taskset -c 0`, OpenCV threads off), default robot "
         "and world;\n"
-        "times are the thread's CPU time (robust to other load), real-time factors are simulated s "
-        "per CPU s.\n"
-        "\"Today\" is the code path before issue 13 (every frame rendered anew, `still_reuse_px:\n"
-        "-1`; blurred frames add every pose's blends into the image, `blur_block_sums: false`,\n"
-        "every pose at full resolution, `blur_half_res_poses: 0`; every edge sample traced,\n"
-        "`edge_samples_on_plane: false`; a coasting wheel creeps on the lag alone,\n"
-        "`SimulationOptions::hold_stopped_wheels: false`),\n"
-        "run side by side in the same process; \"now\" is the default (a still frame within %.2g\n"
-        "px of the last rendered still frame reuses its noiseless image and gets fresh noise; a\n"
-        "blurred frame sums its poses' 4x4 blends per block and blends each block once, and one\n"
-        "of 4 or more poses renders about half of them at half resolution and scales the average\n"
-        "up; an edge pixel whose corners lie on one plane colours its samples on that plane; a\n"
-        "coasting wheel is held once the rest of its coast is 1/20 encoder tick or less). Both\n"
-        "columns share two changes that leave the images as they were: a still frame writes its\n"
-        "pixels (no clearing pass), and the noise and the rounding to 8 bits go row by row (no\n"
-        "image-sized float buffer in between).\n\n",
+        "times are the thread's CPU time, real-time factors are simulated s per CPU s. The "
+        "\"shortcuts off\"\n"
+        "columns run, side by side in the same process, the renderer and the physics without "
+        "their shortcuts:\n"
+        "every frame rendered anew (`still_reuse_px: -1`), a blurred frame adding every pose's "
+        "blends into the\n"
+        "image at full resolution (`blur_block_sums: false`, `blur_half_res_poses: 0`), every "
+        "edge sample traced\n"
+        "(`edge_samples_on_plane: false`), a coasting wheel creeping on the lag alone\n"
+        "(`SimulationOptions::hold_stopped_wheels: false`). With them (the default) a still frame "
+        "within %.2g px\n"
+        "of the last rendered still frame reuses its noiseless image with fresh noise, a blurred "
+        "frame sums its\n"
+        "poses' 4x4 blends per block and blends each block once, one of 4 or more poses renders "
+        "about half of\n"
+        "them at half resolution, an edge pixel whose corners lie on one plane colours its "
+        "samples on that plane,\n"
+        "and a coasting wheel is held once the rest of its coast is 1/20 encoder tick or less.\n\n",
         options.still_reuse_px);
     std::printf(
-        "Render: %dx%d, %d still frames at headings all around the start pose, each rendered anew "
-        "and the best of 3,\n"
-        "today's renderer and now's alternately on each pose (the blurred frames likewise, 20 of "
-        "them).\n\n",
+        "Rendering, %dx%d, %d still frames at headings all around the start pose, each the best "
+        "of 3, with and\n"
+        "without the shortcuts alternately on each pose (the blurred frames likewise, 20 of "
+        "them):\n\n",
         robot.camera.truth.width, robot.camera.truth.height, still_frames - 2);
-    std::printf("| figure | today | now | now / today | target |\n|---|---|---|---|---|\n");
+    std::printf("| figure | median ms | shortcuts off, median ms |\n|---|---|---|\n");
     std::printf(
-        "| still frame rendered anew, supersampling %d (as in tests), median ms | %.2f | **%.2f** "
-        "| %.2f | <= 3 |\n",
-        supersampling[0], median(ms_by_ss[0][0]), median(ms_by_ss[0][1]),
-        median(ms_by_ss[0][1]) / median(ms_by_ss[0][0]));
+        "| still frame rendered anew, supersampling %d (as in the tests) | %.2f (mean %.2f, max "
+        "%.2f) | %.2f (mean %.2f, max %.2f) |\n",
+        supersampling[0], median(ms_by_ss[0][1]), mean(ms_by_ss[0][1]),
+        *std::max_element(ms_by_ss[0][1].begin(), ms_by_ss[0][1].end()), median(ms_by_ss[0][0]),
+        mean(ms_by_ss[0][0]), *std::max_element(ms_by_ss[0][0].begin(), ms_by_ss[0][0].end()));
+    std::printf("| still frame rendered anew, supersampling 1 (no anti-aliasing) | %.2f | %.2f |\n",
+                median(ms_by_ss[1][1]), median(ms_by_ss[1][0]));
     std::printf(
-        "| still frame rendered anew, supersampling %d, mean / max ms | %.2f / %.2f | %.2f / %.2f "
-        "| | |\n",
-        supersampling[0], mean(ms_by_ss[0][0]),
-        *std::max_element(ms_by_ss[0][0].begin(), ms_by_ss[0][0].end()), mean(ms_by_ss[0][1]),
-        *std::max_element(ms_by_ss[0][1].begin(), ms_by_ss[0][1].end()));
-    std::printf(
-        "| still frame rendered anew, supersampling 1 (no anti-aliasing), median ms | %.2f | %.2f "
-        "| %.2f | |\n",
-        median(ms_by_ss[1][0]), median(ms_by_ss[1][1]),
-        median(ms_by_ss[1][1]) / median(ms_by_ss[1][0]));
-    std::printf(
-        "| still frame of a robot standing still (noiseless image reused, fresh noise), median ms "
-        "| | %.2f | | <= 3 |\n",
+        "| still frame of a robot standing still (noiseless image reused, fresh noise) | %.2f | "
+        "— |\n",
         median(ms_reused));
-    std::printf("| JPEG encoding of a frame (quality %d), median ms | %.2f | %.2f | | |\n",
-                robot.camera.jpeg_quality, median(ms_jpeg), median(ms_jpeg));
-    std::printf(
-        "| motion-blurred frame (8 poses over the exposure, each rendered), median ms | %.2f | "
-        "**%.2f** | %.2f | |\n\n",
-        median(ms_blur[0]), median(ms_blur[1]), median(ms_blur[1]) / median(ms_blur[0]));
-    std::printf("Real-time factor: %.0f s of simulated motion (physics %.0f Hz, range %.0f Hz), camera rendered at %.0f Hz\n"
-                "and JPEG-encoded (as the node does when the compressed topic has a subscriber). Frames: blurred /\n"
-                "still rendered / still reused.\n\n",
+    std::printf("| JPEG encoding of a frame (quality %d) | %.2f | — |\n", robot.camera.jpeg_quality,
+                median(ms_jpeg));
+    std::printf("| motion-blurred frame (8 poses over the exposure) | %.2f | %.2f |\n\n",
+                median(ms_blur[1]), median(ms_blur[0]));
+    std::printf("Real-time factor over %.0f s of simulated motion (physics %.0f Hz, range %.0f Hz), camera at %.0f Hz and\n"
+                "JPEG-encoded (as the node does when the compressed topic has a subscriber). Frames: blurred / still\n"
+                "rendered / still reused.\n\n",
                 sim_s, SimulationOptions().physics_rate_hz, robot.range_sensor.rate_hz, robot.camera.rate_hz);
-    std::printf("| motion | frames today | frames now | real-time factor today | now | now / today | target |\n"
-                "|---|---|---|---|---|---|---|\n");
-    for (int m = 0; m < 3; ++m) {
-      std::printf("| %s | %d / %llu / %llu | %d / %llu / %llu | %.1f | **%.1f** | %.2fx | %s |\n", motion_names[m],
-                  before[m].blurred, static_cast<unsigned long long>(before[m].still_rendered),
-                  static_cast<unsigned long long>(before[m].still_reused), after[m].blurred,
-                  static_cast<unsigned long long>(after[m].still_rendered),
-                  static_cast<unsigned long long>(after[m].still_reused), before[m].rtf, after[m].rtf,
-                  after[m].rtf / before[m].rtf, targets[m]);
-    }
-    std::printf("| continuous driving, camera off | | | | %.1f | | >= 50 |\n", without.rtf);
-    std::printf("\nWhere a simulated second goes now (CPU ms per simulated s): rendering blurred frames, still frames\n"
-                "(rendered or reused), JPEG encoding, the rest (physics, range sensor).\n\n");
-    std::printf("| motion | blurred | still | JPEG | rest | total |\n|---|---|---|---|---|---|\n");
+    std::printf("| motion | frames | real-time factor | CPU ms per simulated s: blurred / still / JPEG / rest | "
+                "frames, shortcuts off | real-time factor, shortcuts off |\n"
+                "|---|---|---|---|---|---|\n");
     for (int m = 0; m < 3; ++m) {
       const RunStats& a = after[m];
       const double total_ms = 1000 * sim_s / a.rtf / sim_s;
       const double blurred = 1000 * a.blurred_s / sim_s, still = 1000 * a.still_s / sim_s, jpeg = 1000 * a.jpeg_s / sim_s;
-      std::printf("| %s | %.0f | %.0f | %.0f | %.0f | %.0f |\n", short_names[m], blurred, still, jpeg,
-                  total_ms - blurred - still - jpeg, total_ms);
+      std::printf("| %s | %d / %llu / %llu | %.1f | %.0f / %.0f / %.0f / %.0f | %d / %llu / %llu | %.1f |\n",
+                  motion_names[m], a.blurred, static_cast<unsigned long long>(a.still_rendered),
+                  static_cast<unsigned long long>(a.still_reused), a.rtf, blurred, still, jpeg,
+                  total_ms - blurred - still - jpeg, before[m].blurred,
+                  static_cast<unsigned long long>(before[m].still_rendered),
+                  static_cast<unsigned long long>(before[m].still_reused), before[m].rtf);
     }
+    std::printf("| continuous driving, camera off | | %.1f | | | |\n", without.rtf);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sim_bench: %s\n", e.what());

@@ -1,8 +1,8 @@
 // make bench, wheel stage section: the wheel stage (wheels::WheelRun) on the simulator's core over
 // robot configs spanning a real fleet's trims, side by side with the paper's method alone (the same
 // run with compensate_deadband false: Duckietown's kinematics exactly, one trim). Judged by the
-// simulator's truth: the written kinematics driven 2 m straight at 0.15, 0.25 and 0.4 m/s, before
-// (trim 0) and after. Prints Markdown on stdout.
+// simulator's truth: the written kinematics driven 2 m straight at 0.15, 0.25 and 0.4 m/s,
+// uncalibrated (trim 0) and calibrated. Prints Markdown on stdout.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -62,20 +62,22 @@ int main() {
        variant(1.0, 1.08, 0.0325, 0.0318, 0.1), 0.0},
   };
   const double speeds[3] = {0.15, 0.25, 0.4};
-  std::printf("## Wheel stage (issue 10)\n\n");
+  std::printf("### The wheel stage: autocal vs the paper's method\n\n");
   std::printf(
       "The wheel stage on the simulator's core (no ROS; one core; camera frames rendered), in the\n"
-      "default world, from trim 0, for robot configs spanning a real fleet's trims "
-      "(-0.09..+0.08).\n"
-      "Each calibration is judged by the simulator's truth: the written kinematics driven 2 m\n"
-      "straight on the true robot (Duckietown's acceptance test; it accepts 10 cm). **autocal**: "
-      "the\n"
-      "stage as shipped (deadband fitted and compensated); **paper**: the same run with\n"
-      "`compensate_deadband` false, i.e. paper 000 §3.4 with Duckietown's kinematics exactly (one\n"
-      "multiplicative trim, right at the calibration speed 0.25 m/s only).\n\n");
+      "default world, from trim 0, for robot configs spanning a real fleet's trims (-0.09..+0.08). "
+      "Each\n"
+      "calibration is judged by the simulator's truth: the written kinematics driven 2 m straight "
+      "on the\n"
+      "true robot (Duckietown's acceptance test; it accepts 10 cm). **autocal**: the stage as "
+      "shipped\n"
+      "(deadband fitted and compensated); **paper**: the same run with `compensate_deadband` "
+      "false, i.e.\n"
+      "paper 000 §3.4 with Duckietown's kinematics exactly (one multiplicative trim, right at the\n"
+      "calibration speed 0.25 m/s only).\n\n");
   std::printf(
       "| robot | method | drives | sim s | wall s | trim found | true trim | drift 0.15 / 0.25 / "
-      "0.4 m/s [cm] | before (trim 0) [cm] |\n|---|---|---|---|---|---|---|---|---|\n");
+      "0.4 m/s [cm] | uncalibrated (trim 0) [cm] |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     for (bool compensate : {true, false}) {
       wheels::WheelRunOptions o;
@@ -104,9 +106,10 @@ int main() {
     }
   }
   std::printf(
-      "\n\"true trim\": what the simulated wheels need with the deadband compensated,\n"
-      "(k - 1)/(k + 1) with k = (g_l R_l)/(g_r R_r). \"turns away\": the robot never gets 2 m "
-      "along\n"
-      "its start line. Reproduce: `make build && taskset -c 0 build/bench/wheel_bench`.\n");
+      "\n\"true trim\": what the simulated wheels need with the deadband compensated, (k - 1)/(k + "
+      "1) with\n"
+      "k = (g_l R_l)/(g_r R_r). \"turns away\": the robot never gets 2 m along its start line.\n\n"
+      "Reproduce: `make build && taskset -c 0 build/bench/wheel_bench` (or "
+      "`scripts/bench/wheels.sh`).\n");
   return 0;
 }

@@ -1,5 +1,5 @@
 #!/bin/bash
-# make demo: the simulated robot calibrates its camera and its wheels by itself (see README "Demo").
+# make demo: the simulated robot calibrates its camera and its wheels by itself (README "Two commands").
 # Called by the Makefile with the devel space sourced. Output goes to ${DEMO_OUTPUT:-demo_output};
 # extra arguments go to roslaunch (e.g. real_time_factor:=1 robot_config:=FILE veh:=NAME).
 set -euo pipefail

@@ -1,6 +1,6 @@
-// The one table of exit codes of every autocal node and command (README "Exit codes"): each
-// typed error of the core maps to one code, so that a launch file, a CI script or a person can
-// tell a refused calibration from bad input or a bad parameter without reading the log.
+// The one table of exit codes of every autocal node and command (doc/calibration_run.md "Exit
+// codes"): each typed error of the core maps to one code, so that a launch file, a CI script or a
+// person can tell a refused calibration from bad input or a bad parameter without reading the log.
 #pragma once
 
 #include <exception>
@@ -23,7 +23,8 @@ enum class ExitCode : int {
 /// The code of an exception (by its autocal::Error type; kInternal for anything else).
 ExitCode exitCodeFor(const std::exception& error);
 
-/// One word for the code, as the README's table and log lines name it ("calibration failed").
+/// One word for the code, as doc/calibration_run.md's table and log lines name it ("calibration
+/// failed").
 std::string exitCodeMeaning(ExitCode code);
 
 inline int toInt(ExitCode code) { return static_cast<int>(code); }

@@ -88,16 +88,18 @@ a_w=$(cat "$tmp/autocal_wall_s"); r_w=$(cat "$tmp/ros_wall_s")
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2f", a / b}'; }
 pct() { awk -v a="$1" 'BEGIN {printf "%+.2f %%", 100 * (a - 535.9157) / 535.9157}'; }
 
+# "k1 k2 p1 p2 (k3 fixed at 0)" and the training RMS in one parenthesis.
+if [[ $a_terms == *")" ]]; then fit="${a_terms%)}; training RMS $a_rms px)"; else fit="$a_terms (training RMS $a_rms px)"; fi
+
 cat <<EOF2
-## Camera intrinsics: autocal vs ROS camera_calibration
+### Intrinsics: autocal vs ROS camera_calibration
 
 Same 13 photos (opencv-doc \`left*.jpg\`, 9x6 inner corners, 25 mm squares), same machine, same run.
-OpenCV's reference result for them (\`left_intrinsics.yml\`): fx = fy = 535.92 px.
-Held-out error: leave-one-out — calibrate on 12 photos, fit the 13th photo's pose with those
-intrinsics (solvePnP on that tool's own corners), RMS over its 54 corners; mean over the 13 folds.
-Time: images to intrinsics inside each tool (reading, detection, calibration; not process or
-Python start-up), and the whole command as a user runs it; medians of $runs runs, one process at
-a time.
+OpenCV's reference result for them (\`left_intrinsics.yml\`): fx = fy = 535.92 px. Held-out error:
+leave-one-out — calibrate on 12 photos, fit the 13th photo's pose with those intrinsics (solvePnP
+on that tool's own corners), RMS over its 54 corners; mean over the 13 folds. Time: images to
+intrinsics inside each tool (reading, detection, calibration; not process or Python start-up), and
+the whole command as a user runs it; medians of $runs runs, one process at a time.
 
 | | autocal \`calibrate_camera\` | ROS \`MonoCalibrator\` | plain \`cv::calibrateCamera\`, autocal's corners | OpenCV sample (cornerSubPix 11x11, default flags) |
 |---|---|---|---|---|
@@ -107,18 +109,21 @@ a time.
 | time images → intrinsics, inside the tool [s] | $a_s | $r_s | — | — |
 | time of the whole command [s] | $a_w | $r_w | — | — |
 
-Ratios, ROS / autocal: held-out error **$(ratio "$r_ho" "$a_ho")x**, fx spread **$(ratio "$r_sp" "$a_sp")x**,
-time inside the tool **$(ratio "$r_s" "$a_s")x**, whole command **$(ratio "$r_w" "$a_w")x** (above 1: autocal
-faster). Inside the tool autocal does more per frame than ROS (it searches each frame for further
-boards, measures blur and view diversity, refines kept corners) and fits 2–3 models; the
-whole command adds process start-up (Python imports for ROS) and, for autocal, writing the YAML
-and the 13 audit PNGs.
-autocal fitted $a_terms (training RMS $a_rms px). ROS runs with cameracalibrator's default
-\`--k-coefficients 2\` (k3 fixed); its sub-pixel window reaches the neighbouring corners (half-size
-= half the corner spacing), which is most of its held-out error.
+Ratios, ROS / autocal: held-out error **$(ratio "$r_ho" "$a_ho")x**, fx spread **$(ratio "$r_sp" "$a_sp")x**, time inside the tool
+**$(ratio "$r_s" "$a_s")x**, whole command **$(ratio "$r_w" "$a_w")x** (above 1: autocal faster). Inside the tool autocal does more per
+frame than ROS (it searches each frame for further boards, measures blur and view diversity,
+refines kept corners) and fits 2–3 models; the whole command adds process start-up (Python imports
+for ROS) and, for autocal, writing the YAML and the 13 audit PNGs. autocal fitted $fit. ROS runs with cameracalibrator's default \`--k-coefficients 2\`
+(k3 fixed); its sub-pixel window reaches the neighbouring corners (half-size = half the corner
+spacing), which is most of its held-out error.
 
-Chessboard detection per 640x480 frame, one thread (\`bench_camera_detection\`): each frame timed
-alone 10 times, its best time kept; the mean over frames and the slowest frame.
+Reproduce: \`scripts/bench/camera.sh\` after \`make build\`; the ROS peer alone:
+\`/usr/bin/python3 scripts/ros_camera_calibration_peer.py --images '$data/left[0-9]*.jpg'\`.
+
+### Chessboard detection per frame
+
+640x480 frames, one thread (\`bench_camera_detection\`): each frame timed alone 10 times, its best
+time kept; the mean over frames and the slowest frame.
 
 | case | mean ms/frame | slowest frame ms |
 |---|---|---|
@@ -137,11 +142,9 @@ The robot's own view: 36 frames the simulator renders as the robot pivots on a w
 | no precheck (\`half_resolution_precheck: false\`), global threshold | $(detn sim_frames_no_precheck) | $(det sim_frames_no_precheck) |
 | no precheck, adaptive threshold | $(detn sim_frames_no_precheck_adaptive) | $(det sim_frames_no_precheck_adaptive) |
 
-The half-resolution precheck misses boards whose squares are small at half resolution, and an
-adaptive-threshold search that fails (a board cut by the edge) is slow; a camera node on the
-robot should weigh recall against these milliseconds (both are settings in
-\`config/camera_calibration.yaml\`).
+The half-resolution precheck misses boards whose squares are small at half resolution (the camera
+stage therefore turns it off), and an adaptive-threshold search that fails (a board cut by the
+edge) is slow; both are settings in \`config/camera_calibration.yaml\`.
 
-Reproduce: \`make bench\` (or \`scripts/bench/camera.sh\` after \`make build\`); the peer alone:
-\`/usr/bin/python3 scripts/ros_camera_calibration_peer.py --images '$data/left[0-9]*.jpg'\`.
+Reproduce: \`scripts/bench/camera.sh\` after \`make build\`.
 EOF2

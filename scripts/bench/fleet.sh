@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
 # make bench, fleet section: sim_fleet.launch with 1, 2, 4 and 8 robots at real_time_factor 0 (as
-# fast as the machine allows, every node on the machine's cores), against the peer a lab has today:
-# the same robots calibrated one after another (n × the single run's wall time). Markdown on stdout.
+# fast as the machine allows, every node on the machine's cores), against the peer a lab has
+# without it: the same robots calibrated one after another (n × the single run's wall time).
+# Markdown on stdout.
 # FLEET_SIZES overrides the sizes (e.g. "1 2").
 set -uo pipefail
 cd "$(dirname "$0")/../.."
 sizes=${FLEET_SIZES:-"1 2 4 8"}
 root=$(mktemp -d /tmp/autocal_fleet_bench.XXXX)
 echo "bench/fleet: sim_fleet.launch n = $sizes (several minutes)" >&2
-echo "## A fleet in one simulator (sim_fleet.launch)"
+echo "### A fleet in one simulator"
 echo
 echo "\`rosrun autocal sim_fleet n:=N real_time_factor:=0\`: N default robots (camera and wheel stages,"
-echo "each with its run report) on one simulator and clock, on this machine's $(nproc) cores. \"Sim time\""
-echo "is when the last robot's report came (the fleet's simulated duration); the real-time factor is"
-echo "sim time / wall time, i.e. how fast the world runs with N robots calibrating at once. The"
-echo "peer is the robots calibrated one after another: N × the 1-robot wall time."
+echo "each with its run report) on one simulator and clock, at \`sim_fleet.launch\`'s lockstep of 0.02 s,"
+echo "a fleet's frames due at once rendered one robot per thread, on this machine's $(nproc) cores. \"Sim time\""
+echo "is when the last robot's report came; the real-time factor is sim time / wall time. The peer is"
+echo "the robots calibrated one after another: N × the 1-robot wall time. Wall time includes each"
+echo "launch's start (about 5 s)."
 echo
 echo "| robots | succeeded | wall [s] | wall per robot [s] | sim time [s] | real-time factor | one after another [s] | fleet / one after another |"
 echo "|---|---|---|---|---|---|---|---|"
@@ -46,7 +48,7 @@ for n in $sizes; do
   fi
 done
 echo
-echo "Wall time includes each launch's start (about 5 s). Reproduce: \`FLEET_SIZES=\"1 2 4 8\" scripts/bench/fleet.sh\`."
+echo "Reproduce: \`FLEET_SIZES=\"1 2 4 8\" scripts/bench/fleet.sh\`."
 if [ -n "$failures" ]; then
   echo
   echo "Failed robots (logs kept in $root):"

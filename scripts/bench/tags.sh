@@ -17,23 +17,21 @@ echo "tags bench: $frames frames x $rounds rounds" >&2
 row() { awk -v k="$1" '$1 == k {for (i = 8; i <= 9; ++i) if ($i == "nan") $i = "—";
   printf "%s | %s | %s | %s | %s | %s | %s", $3, $4, $5, $6, $7, $8, $9}' "$tmp/out.txt"; }
 col() { awk -v k="$1" -v c="$2" '$1 == k {print $c}' "$tmp/out.txt"; }
-target() { awk -v a="$1" 'BEGIN {print (a <= 15 ? "met" : "missed")}'; }
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2f", a / b}'; }
 read -r h1 h2 h3 h4 h5 h6 <<< "$(awk '$1 == "tags_in_view" {print $2, $3, $4, $5, $6, $7}' "$tmp/out.txt")"
 n=$(col ours_d1 2)
 
 cat <<EOF2
-## AprilTag detection and pose per frame
+### AprilTag detection and pose per frame
 
-$n frames of 640x480 the simulator renders for the default robot (\`sim/config/robot.yaml\`, its
-plumb_bob lens k1 = -0.27) facing the floor-tag strip of \`world.yaml\` from random poses (seed 7),
-each with 1–6 tag36h11 tags of 6.5 cm fully in view (frames with 1, 2, 3, 4, 5, 6 tags: $h1, $h2, $h3,
-$h4, $h5, $h6). One thread (libapriltag \`nthreads\` 1, \`cv::setNumThreads(1)\`), so one core;
-grey frames in; each frame timed $rounds times and its best time kept (the machine may be shared);
-percentiles over frames.
-Same libapriltag options for both (the \`TagDetectorOptions\` defaults: refine_edges 1,
-quad_sigma 0, max_hamming 0, decision margin >= 20). Position error: the tag centre's distance
-from the simulator's truth in the camera frame, over every tag detected.
+$n frames of 640x480 the simulator renders for the default robot (its plumb_bob lens,
+k1 = -0.27) facing the floor-tag strip of \`world.yaml\` from random poses (seed 7), each with 1–6
+tag36h11 tags of 6.5 cm fully in view (frames with 1, 2, 3, 4, 5, 6 tags: $h1, $h2, $h3, $h4, $h5, $h6).
+One thread (libapriltag \`nthreads\` 1, \`cv::setNumThreads(1)\`); grey frames in; each frame timed $rounds
+times and its best time kept; percentiles over frames. The same libapriltag options for both (the
+\`TagDetectorOptions\` defaults: refine_edges 1, quad_sigma 0, max_hamming 0, decision margin ≥ 20).
+Position error: the tag centre's distance from the simulator's truth in the camera frame, over
+every tag detected.
 
 | variant | median ms | p90 ms | p99 ms | max ms | tags found | median error mm | p90 error mm |
 |---|---|---|---|---|---|---|---|
@@ -46,23 +44,17 @@ from the simulator's truth in the camera frame, over every tag detected.
 | plain libapriltag, decimate 2 | $(row plain_d2) |
 | plain libapriltag, detection only, decimate 2 | $(row plain_detect_only_d2) |
 
-Largest error [mm]: autocal $(col ours_d1 10), plain $(col plain_d1 10) at decimate 1; $(col ours_d2 10) and $(col plain_d2 10) at 2.
+Largest error [mm]: autocal $(col ours_d1 10), plain $(col plain_d1 10) at decimate 1; $(col ours_d2 10) and $(col plain_d2 10) at 2. Ratios of the
+medians: autocal / plain **$(ratio "$(col ours_d1 3)" "$(col plain_d1 3)")x** at decimate 1, **$(ratio "$(col ours_d2 3)" "$(col plain_d2 3)")x** at decimate 2; decimate 2 / decimate
+1: autocal $(ratio "$(col ours_d2 3)" "$(col ours_d1 3)")x, plain $(ratio "$(col plain_d2 3)" "$(col plain_d1 3)")x; as the wheel stage runs it (floor rows only, decimate 1)
+autocal / plain $(ratio "$(col ours_floor_d1 3)" "$(col plain_d1 3)")x. The undistortion alone (\`cv::remap\`, maps computed once) takes
+$(col undistort_only_d1 3) ms per frame (median). Plain libapriltag on the raw frame treats the lens as a pinhole: the error
+column is why autocal undistorts first (paper 000 §3.4). Undistorting with the same K crops the
+wide lens's periphery (less of the textured walls and boxes reach libapriltag, whose time grows
+with the quads it must examine): that, not a faster algorithm, is why autocal's whole path can be
+faster than plain detection on the raw frame, and presumably why it finds fewer tags. The pose
+(IPPE or \`estimate_tag_pose\`) costs little next to the detection. The \`detect_tags\` command's
+accuracy on the simulator's frames: [Accuracy in the tests](#accuracy-in-the-tests).
 
-Ratios of the medians: autocal / plain **$(ratio "$(col ours_d1 3)" "$(col plain_d1 3)")x** at decimate 1,
-**$(ratio "$(col ours_d2 3)" "$(col plain_d2 3)")x** at decimate 2; decimate 2 / decimate 1:
-autocal $(ratio "$(col ours_d2 3)" "$(col ours_d1 3)")x, plain $(ratio "$(col plain_d2 3)" "$(col plain_d1 3)")x.
-The undistortion alone (\`cv::remap\`, maps computed once) takes $(col undistort_only_d1 3) ms median per
-frame. Target, <= 15 ms per frame on one core: $(target "$(col ours_floor_d1 3)") as the wheel stage
-runs it (floor rows only, decimate 1: median $(col ours_floor_d1 3) ms, p99 $(col ours_floor_d1 5) ms, autocal / plain
-$(ratio "$(col ours_floor_d1 3)" "$(col plain_d1 3)")x); on the whole frame $(target "$(col ours_d1 3)") at decimate 1 (median
-$(col ours_d1 3) ms), $(target "$(col ours_d2 3)") at decimate 2 (median $(col ours_d2 3) ms, p99 $(col ours_d2 5) ms). Plain libapriltag on the raw frame treats the lens
-as a pinhole: the error column is why autocal undistorts first (paper 000 §3.4). Undistorting with
-the same K crops the wide lens's periphery (less of the textured walls and boxes reach libapriltag,
-whose time grows with the quads it must examine): that, not a faster algorithm, is why autocal's
-whole path can be faster than plain detection on the raw frame, and presumably why it finds
-fewer tags (those only the periphery shows). The pose (IPPE or \`estimate_tag_pose\`) costs little next to the
-detection.
-
-Reproduce: \`make bench\` (or \`scripts/bench/tags.sh\` after \`make build\`; \`TAGS_BENCH_FRAMES\`,
-\`TAGS_BENCH_ROUNDS\`).
+Reproduce: \`scripts/bench/tags.sh\` after \`make build\` (\`TAGS_BENCH_FRAMES\`, \`TAGS_BENCH_ROUNDS\`).
 EOF2

@@ -3,7 +3,8 @@
 //   rosrun autocal calibrate_camera --bag FILE.bag --topic /veh/camera_node/image/compressed ...
 // Writes the camera_info YAML (camera_calibration_parsers, atomically) only when the result passes
 // the quality gate, and beside it FILE_views/ with the views used (image + corners) for audit.
-// Exit codes: the one table of README "Exit codes" (autocal/exit_codes.h).
+// Exit codes: the one table of doc/calibration_run.md "Exit codes" (autocal/exit_codes.h);
+// doc/nodes/calibrate_camera.md.
 #include <cv_bridge/cv_bridge.h>
 #include <glob.h>
 #include <ros/package.h>

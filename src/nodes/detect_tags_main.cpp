@@ -2,7 +2,8 @@
 //   rosrun autocal detect_tags --images 'DIR/*.png' --camera-info FILE.yaml --tag-size 0.065
 //   rosrun autocal detect_tags --bag FILE.bag --topic /veh/camera_node/image/compressed ...
 // The images are undistorted with the camera_info first (markers::TagDetector). Needs no master.
-// README "detect_tags"; exit codes: the one table of README "Exit codes" (autocal/exit_codes.h).
+// doc/nodes/detect_tags.md; exit codes: the one table of doc/calibration_run.md "Exit codes"
+// (autocal/exit_codes.h).
 #include <cv_bridge/cv_bridge.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>

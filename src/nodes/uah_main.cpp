@@ -1,8 +1,7 @@
 // rosrun autocal uah --bag FILE --veh NAME [--straight-length-m 3.0 ...] [--out PATH]
 // The UAH odometry calibration (paper 002 §2) recomputed from a bag of a run of
 // odometry_calibration_node, no robot and no master: the passive mode (odometry::replayUah). Prints
-// the result as YAML and optionally writes the odometry calibration file. README "Odometry
-// calibration node".
+// the result as YAML and optionally writes the odometry calibration file. doc/nodes/uah.md.
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <std_msgs/Float64.h>

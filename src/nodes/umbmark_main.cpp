@@ -1,7 +1,7 @@
 // rosrun autocal umbmark --errors FILE.yaml --side 1.0 --wheelbase 0.102
 //     [--expressions original|corrected] [--out odometry/<veh>.yaml --veh NAME]
 // UMBmark from measured return errors; prints the result as YAML and optionally writes the
-// odometry calibration file. Needs no ROS master. README "Odometry calibration: umbmark".
+// odometry calibration file. Needs no ROS master. doc/nodes/umbmark.md.
 #include <cmath>
 #include <iostream>
 #include <sstream>

@@ -4,7 +4,7 @@
 Runs scripts/calibrate_sim, replay, sim_fleet and odometry_sim by path with a fake `roslaunch`
 first on PATH: it records its argv and, from its own cwd $ROS_HOME as the real nodes, writes the
 files the wrapper judges the run by (summary.yaml result: success, or odometry/VEH.yaml). Checks
-that a typo'd or malformed argument is refused with status 2 naming it and the nearest valid name
+that a typo'd or malformed argument is refused with status 64 naming it and the nearest valid name
 and that nothing was launched, that -h/--help lists the arguments, and that relative and ~ paths
 reach roslaunch absolute, from the directory the command ran in, and the wrapper reads its result
 there.
@@ -21,6 +21,9 @@ import subprocess
 import sys
 import tempfile
 import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+import junit_result  # noqa: E402
 import xml.etree.ElementTree as ET
 
 PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
@@ -220,55 +223,5 @@ def looks_like_path(launch, name):
             or re.search(r"\$\((find|env) |find\('|\.(yaml|bag)\b", default) is not None)
 
 
-class JUnitResult(unittest.TextTestResult):
-    """The text result, also kept per test (a failed subtest fails its test) for --xml."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.cases = {}
-
-    def _case(self, test):
-        return self.cases.setdefault(test.id(), [])
-
-    def addSuccess(self, test):
-        super().addSuccess(test)
-        self._case(test)
-
-    def addFailure(self, test, err):
-        super().addFailure(test, err)
-        self._case(test).append(("failure", self._exc_info_to_string(err, test)))
-
-    def addError(self, test, err):
-        super().addError(test, err)
-        self._case(test).append(("error", self._exc_info_to_string(err, test)))
-
-    def addSubTest(self, test, subtest, err):
-        super().addSubTest(test, subtest, err)
-        outcomes = self._case(test)
-        if err is not None:
-            kind = "failure" if issubclass(err[0], test.failureException) else "error"
-            outcomes.append((kind, "%s\n%s" % (subtest, self._exc_info_to_string(err, test))))
-
-    def write_xml(self, path):
-        suite = ET.Element("testsuite", name="test_wrappers", tests=str(len(self.cases)),
-                           failures=str(sum(1 for o in self.cases.values() if o)), errors="0")
-        for test_id, outcomes in sorted(self.cases.items()):
-            classname, _, name = test_id.rpartition(".")
-            case = ET.SubElement(suite, "testcase", classname=classname, name=name)
-            for kind, text in outcomes:
-                ET.SubElement(case, kind, message=text.strip().splitlines()[-1]).text = text
-        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-        ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
-
-
 if __name__ == "__main__":
-    argv, xml = sys.argv[1:], None
-    if "--xml" in argv:
-        i = argv.index("--xml")
-        xml = argv[i + 1]
-        del argv[i:i + 2]
-    runner = unittest.TextTestRunner(resultclass=JUnitResult, verbosity=2)
-    program = unittest.main(argv=[sys.argv[0]] + argv, testRunner=runner, exit=False)
-    if xml:
-        program.result.write_xml(xml)
-    sys.exit(0 if program.result.wasSuccessful() else 1)
+    junit_result.main("test_wrappers")

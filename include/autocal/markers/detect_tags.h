@@ -1,5 +1,5 @@
-// The core of the `detect_tags` command (README "detect_tags"): its options, the images it reads,
-// and the YAML it prints; ROS-free (the bag reading lives in the command).
+// The core of the `detect_tags` command (doc/nodes/detect_tags.md): its options, the images it
+// reads, and the YAML it prints; ROS-free (the bag reading lives in the command).
 #pragma once
 
 #include <opencv2/core.hpp>

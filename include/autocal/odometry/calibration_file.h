@@ -1,5 +1,5 @@
 // The odometry calibration result every method produces, and the one function that writes it to
-// `odometry/<veh>.yaml` (DESIGN.md "Calibration files").
+// `odometry/<veh>.yaml` (doc/files.md "Odometry").
 #pragma once
 
 #include <string>

@@ -1,9 +1,10 @@
 // The UAH calibration (paper 002 §2) recomputed from a recording of a run, no robot: the passive
-// mode of DESIGN.md "Nodes". It commands nothing. Which experiment each motion was comes from the
-// recorded status (phase odometry/<experiment>), cross-checked against the recorded wheel
-// commands (a pivot on the stopped left wheel commands left 0, right > 0; …); when each motion
-// started and stopped comes from the commands (a motion is a stretch of commands not both zero),
-// and its data ends when the encoders have settled after the stop, as odometry::UahRun ends it.
+// mode, as the `uah --bag` command runs it (doc/nodes/uah.md). It commands nothing. Which
+// experiment each motion was comes from the recorded status (phase odometry/<experiment>),
+// cross-checked against the recorded wheel commands (a pivot on the stopped left wheel commands
+// left 0, right > 0; …); when each motion started and stopped comes from the commands (a motion is
+// a stretch of commands not both zero), and its data ends when the encoders have settled after the
+// stop, as odometry::UahRun ends it.
 // Each turn's whole rounds are found again from the range autocorrelation over the turn (§2.1,
 // detectWholeRound), the straight runs' pulses and heading from the encoders (§2.3), and the
 // result is computeUah's with the same gates as the live run. The one measured input, each

@@ -1,5 +1,6 @@
-// The camera image a person watching the run sees (RViz, README "RViz"): a frame with the floor
-// tags the wheel stage detected in it drawn over. ROS-free; camera_view_node is its node.
+// The camera image a person watching the run sees (RViz: doc/calibration_run.md "Watching a run in
+// RViz"): a frame with the floor tags the wheel stage detected in it drawn over. ROS-free;
+// camera_view_node is its node.
 #pragma once
 
 #include <opencv2/core.hpp>

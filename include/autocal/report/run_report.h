@@ -1,9 +1,9 @@
-// The report of one calibration run (DESIGN.md "The calibration run"),
-// ROS-free: a RunRecorder is fed what the run published (every stage's status on the one status
-// topic, the encoder readings) and says when the run has ended (every stage DONE, or one FAILED);
-// the report is then a PNG sheet for a person (the views used and their reprojection errors, the
-// image coverage by board corners, the wheel stage's believed path and k per iteration, the
-// odometry figures, pass/fail) and summary.yaml with the figures, written atomically beside the
+// The report of one calibration run (doc/calibration_run.md; its files: doc/files.md "The run's
+// report"), ROS-free: a RunRecorder is fed what the run published (every stage's status on the one
+// status topic, the encoder readings) and says when the run has ended (every stage DONE, or one
+// FAILED); the report is then a PNG sheet for a person (the views used and their reprojection
+// errors, the image coverage by board corners, the wheel stage's believed path and k per iteration,
+// the odometry figures, pass/fail) and summary.yaml with the figures, written atomically beside the
 // calibration files. It reads only what the calibration nodes publish and write, never a
 // simulator's truth.
 #pragma once

@@ -1,7 +1,8 @@
 // camera_calibration_node — the robot calibrates its camera by itself (paper 000 §3.1–3.2): it
 // finds its wheels' minimum moving duty, turns one wheel at a time in steps past the chessboards
 // around it, grabs one settled frame per step, and calibrates the views (camera::SweepRun does all
-// of it; this class only wires ROS to it). README "Camera calibration node" lists the parameters.
+// of it; this class only wires ROS to it). doc/nodes/camera_calibration_node.md lists the
+// parameters.
 //
 // Subscribes (relative to the robot's namespace): camera_node/image/compressed (or image/raw with
 // ~image_transport raw), camera_node/camera_info (image size and the fit's starting point only),

@@ -1,4 +1,5 @@
-// rosrun autocal camera_calibration_node — see camera_calibration_node.h and README.
+// rosrun autocal camera_calibration_node — see camera_calibration_node.h and
+// doc/nodes/camera_calibration_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "camera_calibration_node.h"
 

@@ -1,6 +1,7 @@
 // kinematics_node — Duckietown's inverse kinematics node in C++: car commands (v, ω) in, wheel
 // duties out, through wheels::carCmdToDuties with the robot's `kinematics/<veh>.yaml` (gain, trim,
-// ... and autocal's deadband offsets). README "Kinematics node" lists topics and parameters.
+// ... and autocal's deadband offsets). doc/nodes/kinematics_node.md lists topics and
+// parameters.
 //
 // Subscribes kinematics_node/car_cmd, publishes wheels_driver_node/wheels_cmd (both relative to
 // the robot's namespace). The file is read once at the start (missing: the defaults and a

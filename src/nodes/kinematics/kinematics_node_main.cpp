@@ -1,4 +1,4 @@
-// rosrun autocal kinematics_node — see kinematics_node.h and README "Kinematics node".
+// rosrun autocal kinematics_node — see kinematics_node.h and doc/nodes/kinematics_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "kinematics_node.h"
 

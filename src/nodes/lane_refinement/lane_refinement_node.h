@@ -3,7 +3,8 @@
 // nothing (the lane follower drives); seeing the segment's first tag id near straight ahead starts
 // a pass, during which it publishes kinematics_node/car_cmd; a new trim, once stable over passes
 // and different enough from the one in use, is set as the kinematics node's `trim` parameter and
-// saved through its ~save_calibration service. README "In-lane refinement" lists the parameters.
+// saved through its ~save_calibration service. doc/nodes/lane_refinement_node.md lists the
+// parameters.
 //
 // Subscribes (relative to the robot's namespace): camera_node/image/compressed (or image/raw),
 // left_wheel_encoder_node/tick, right_wheel_encoder_node/tick. Publishes kinematics_node/car_cmd

@@ -1,4 +1,5 @@
-// rosrun autocal lane_refinement_node — see lane_refinement_node.h and README.
+// rosrun autocal lane_refinement_node — see lane_refinement_node.h and
+// doc/nodes/lane_refinement_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "lane_refinement_node.h"
 

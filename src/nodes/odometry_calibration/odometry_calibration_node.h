@@ -1,8 +1,8 @@
 // odometry_calibration_node — the robot drives paper 002's UAH experiments by itself (§2): it
 // pivots on its stopped left wheel, then on its stopped right wheel (whole rounds from the range
 // autocorrelation, §2.1), spins in place, and drives straight runs on a free line, then writes
-// odometry/<veh>.yaml (odometry::UahRun does the work; this class only wires ROS to it). README
-// "Odometry calibration node" lists the parameters.
+// odometry/<veh>.yaml (odometry::UahRun does the work; this class only wires ROS to it).
+// doc/nodes/odometry_calibration_node.md lists the topics and parameters.
 //
 // With ~method umbmark it drives UMBmark instead (odometry::UmbmarkRun): n squares clockwise, n
 // counter-clockwise on its own odometry; after each square it waits for that square's return

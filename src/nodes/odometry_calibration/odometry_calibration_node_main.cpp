@@ -1,4 +1,5 @@
-// rosrun autocal odometry_calibration_node — see odometry_calibration_node.h and README.
+// rosrun autocal odometry_calibration_node — see odometry_calibration_node.h and
+// doc/nodes/odometry_calibration_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "odometry_calibration_node.h"
 

@@ -1,10 +1,10 @@
-// camera_view_node — the camera image with detections, raw, for RViz's Image display (Debian has
-// no compressed image_transport plugin; README "RViz"). While somebody subscribes to
-// camera_view/image it shows the camera stage's debug image (chessboard corners, coverage) while
-// that comes; else the camera's frames, and each frame the wheel stage detected floor tags in with
-// them drawn over (report::drawTagDetections; the frame and its detections are paired by stamp,
-// whichever comes first), held a while since the stage looks at frames in bursts. With no
-// subscriber it subscribes to nothing and costs nothing.
+// camera_view_node — the camera image with detections, raw, for RViz's Image display (Debian has no
+// compressed image_transport plugin; doc/calibration_run.md "Watching a run in RViz"). While
+// somebody subscribes to camera_view/image it shows the camera stage's debug image (chessboard
+// corners, coverage) while that comes; else the camera's frames, and each frame the wheel stage
+// detected floor tags in with them drawn over (report::drawTagDetections; the frame and its
+// detections are paired by stamp, whichever comes first), held a while since the stage looks at
+// frames in bursts. With no subscriber it subscribes to nothing and costs nothing.
 //
 // Subscribes (relative to the robot's namespace, lazily): camera_calibration_node/debug/image/
 // compressed, camera_node/image/compressed, apriltag_detector_node/detections. Publishes

@@ -1,4 +1,4 @@
-// rosrun autocal camera_view_node — see camera_view_node.h and README "RViz".
+// rosrun autocal camera_view_node — see camera_view_node.h and doc/nodes/camera_view_node.md.
 #include <ros/callback_queue.h>
 
 #include "autocal_ros/node_runtime.h"

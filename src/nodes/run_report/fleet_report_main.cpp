@@ -2,7 +2,7 @@
 // run_report_node has written <calibration_root>/report/<veh>/summary.yaml in this run (newer than
 // the node's start), prints one line per robot (its result, fx and trim, or why it failed), and
 // exits 0 when all succeeded; a robot that failed, or is still running after ~max_wall_s, makes it
-// fail naming them (exit 1 through runNode's failure path). README "A fleet".
+// fail naming them (exit 1 through runNode's failure path). doc/nodes/fleet_report_node.md.
 //
 // Parameters: ~vehicles (comma-separated names, required), ~calibration_root
 // (/data/config/calibrations), ~max_wall_s (0: no limit), ~poll_s (0.5, wall).

@@ -1,5 +1,5 @@
-// run_report_node — watches a whole calibration run and writes its report (DESIGN.md "The
-// calibration run"). It listens to every stage on the one
+// run_report_node — watches a whole calibration run and writes its report (doc/calibration_run.md,
+// doc/files.md "The run's report"). It listens to every stage on the one
 // status topic and to the encoders; it prints one progress line per stage as the stage goes on;
 // when every stage of ~stages is DONE, or one FAILED, it writes report.png and summary.yaml
 // (report::RunRecorder, report::writeReport) and exits 0 on success, 1 on failure (the launch files
@@ -17,7 +17,7 @@
 // (phase run/<step>) and, on failure, wheels_driver_node/wheels_cmd (zero); for a person watching:
 // /diagnostics (diagnostic_updater: one status per stage and one for the run) and
 // calibration/believed_path (nav_msgs/Path, the encoders' dead reckoning, only while somebody
-// subscribes). README "Report".
+// subscribes). doc/nodes/run_report_node.md.
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>

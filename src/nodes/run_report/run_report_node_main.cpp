@@ -1,4 +1,4 @@
-// rosrun autocal run_report_node — see run_report_node.h and README "Report".
+// rosrun autocal run_report_node — see run_report_node.h and doc/nodes/run_report_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "run_report_node.h"
 

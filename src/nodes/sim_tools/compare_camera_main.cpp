@@ -1,7 +1,8 @@
 // compare_camera: a validation tool of the simulator (never used by a calibration): prints a
 // camera_info YAML written by a calibration next to the TRUE lens of the simulated robot.
 //   rosrun autocal compare_camera --robot-config sim/config/robot.yaml --calibration FILE.yaml
-// Prints one row per quantity (found, truth, error); exit codes: README "Exit codes".
+// Prints one row per quantity (found, truth, error); exit codes: doc/calibration_run.md
+// "Exit codes"; doc/nodes/compare_camera.md.
 #include <camera_calibration_parsers/parse.h>
 
 #include <cmath>

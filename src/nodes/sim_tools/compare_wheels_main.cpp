@@ -5,7 +5,7 @@
 // The truth: the simulator's wheel turns at gain·K·(duty − deadband)/(1 − deadband), so with the
 // deadband compensated the commands drive straight when right/left = (g_l·R_l)/(g_r·R_r), i.e.
 // trim = gain·(k − 1)/(k + 1); each wheel's offset is the config's deadband.
-// Exit codes: README "Exit codes".
+// Exit codes: doc/calibration_run.md "Exit codes"; doc/nodes/compare_wheels.md.
 #include <cmath>
 #include <cstdio>
 #include <string>

@@ -1,4 +1,5 @@
-// rosrun autocal validate_straight — see validate_straight_node.h and README.
+// rosrun autocal validate_straight — see validate_straight_node.h and
+// doc/nodes/validate_straight.md.
 #include "autocal_ros/node_runtime.h"
 #include "validate_straight_node.h"
 

@@ -10,7 +10,7 @@
 // Publishes kinematics_node/car_cmd (duckietown_msgs/Twist2DStamped) and calibration/status
 // (phase validate/<speed>, DONE with drift_cm_<i> figures); between speeds it drives back as far
 // (~drive_back). Exit 0 when every drift is within ~max_drift_m, 1 (calibration failed) when one is
-// not and ~fail_above_max_drift is true; README "validate_straight".
+// not and ~fail_above_max_drift is true; doc/nodes/validate_straight.md.
 #pragma once
 
 #include <ros/ros.h>

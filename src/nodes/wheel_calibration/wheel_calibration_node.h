@@ -3,7 +3,8 @@
 // ~intrinsics_file), turns one wheel at a time until it is aligned with the floor tags, drives
 // forward and back while the tags' heading change refines the trim, fits each wheel's deadband
 // from its encoder, leaves the tag field, and writes kinematics/<veh>.yaml (wheels::WheelRun does
-// the work; this class only wires ROS to it). README "Wheel calibration node" lists the parameters.
+// the work; this class only wires ROS to it). doc/nodes/wheel_calibration_node.md lists the
+// parameters.
 //
 // Subscribes (relative to the robot's namespace): calibration/status (the camera stage's hand-off),
 // camera_node/image/compressed (or image/raw), left_wheel_encoder_node/tick,

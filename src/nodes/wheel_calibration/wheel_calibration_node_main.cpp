@@ -1,4 +1,5 @@
-// rosrun autocal wheel_calibration_node — see wheel_calibration_node.h and README.
+// rosrun autocal wheel_calibration_node — see wheel_calibration_node.h and
+// doc/nodes/wheel_calibration_node.md.
 #include "autocal_ros/node_runtime.h"
 #include "wheel_calibration_node.h"
 

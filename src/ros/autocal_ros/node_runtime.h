@@ -1,6 +1,8 @@
-// What every autocal node shares at run time: the latched status of DESIGN.md "Status protocol",
+// What every autocal node shares at run time: the latched status of doc/calibration_run.md
+// "The status protocol",
 // the wheels' stop, and the one failure path (stop the wheels until the stop is seen, publish
-// FAILED with the reason, ROS_FATAL, exit with the code of the one table, README "Exit codes").
+// FAILED with the reason, ROS_FATAL, exit with the code of the one table, doc/calibration_run.md
+// "Exit codes").
 // SIGINT and SIGTERM stop the wheels too.
 #pragma once
 

@@ -1,6 +1,6 @@
 // The floor-tag parameters every node that sights tags shares (the wheel stage, the in-lane
-// refinement): the detector, which tags count for the heading, and the camera mount. README "Wheel
-// calibration node" documents them.
+// refinement): the detector, which tags count for the heading, and the camera mount.
+// doc/nodes/wheel_calibration_node.md and doc/nodes/lane_refinement_node.md document them.
 #pragma once
 
 #include "autocal/markers/tag_detector.h"

@@ -1,0 +1,72 @@
+#!/usr/bin/python3
+"""The package installs as a ROS package: `cmake --install BUILD --prefix TMP` (what
+`catkin_make install` runs) puts every executable a launch file of the package starts, every
+wrapper command, the launch files and the configs they name where roslaunch and rosrun find them.
+
+    /usr/bin/python3 test/scripts/test_install.py BUILD_DIR [--xml RESULT.xml]
+"""
+import glob
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+import xml.etree.ElementTree as ET
+
+sys.path.insert(0, os.path.dirname(os.path.realpath(__file__)))
+import junit_result  # noqa: E402
+
+PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
+BUILD = None  # from the command line
+
+
+class Install(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.prefix = tempfile.mkdtemp(prefix="autocal_install_")
+        cls.result = subprocess.run(["cmake", "--install", BUILD, "--prefix", cls.prefix],
+                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        cls.bin = os.path.join(cls.prefix, "lib", "autocal")
+        cls.share = os.path.join(cls.prefix, "share", "autocal")
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.prefix, ignore_errors=True)
+
+    def test_install_succeeds(self):
+        self.assertEqual(self.result.returncode, 0, self.result.stdout[-3000:])
+
+    def test_every_node_a_launch_file_starts_is_installed(self):
+        for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
+            for node in ET.parse(launch).getroot().iter("node"):
+                if node.get("pkg") != "autocal":
+                    continue
+                exe = os.path.join(self.bin, node.get("type"))
+                with self.subTest(launch=os.path.basename(launch), node=node.get("type")):
+                    self.assertTrue(os.access(exe, os.X_OK), "%s is not installed" % exe)
+
+    def test_wrapper_commands_are_installed(self):
+        for name in ("calibrate_sim", "replay", "sim_fleet", "odometry_sim", "launch_args.py"):
+            with self.subTest(command=name):
+                self.assertTrue(os.access(os.path.join(self.bin, name), os.X_OK), name)
+
+    def test_launch_files_and_the_files_they_find_are_installed(self):
+        for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
+            rel = os.path.relpath(launch, PKG)
+            with self.subTest(launch=rel):
+                self.assertTrue(os.path.isfile(os.path.join(self.share, rel)), rel)
+            with open(launch) as f:
+                text = f.read()
+            for path in re.findall(r"\$\(find autocal\)/([\w./-]+)", text):
+                with self.subTest(launch=rel, path=path):
+                    self.assertTrue(os.path.exists(os.path.join(self.share, path)),
+                                    "%s names %s, not installed" % (rel, path))
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2 or sys.argv[1].startswith("-"):
+        sys.exit(__doc__)
+    BUILD = os.path.abspath(sys.argv.pop(1))
+    junit_result.main("test_install")

@@ -92,11 +92,15 @@ if(CATKIN_ENABLE_TESTING)
   target_include_directories(test_calibrate_run PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
   autocal_ros_target(test_calibrate_run)
   add_dependencies(tests test_calibrate_run)
-  # About 2 min at real_time_factor 0 (README "The calibration run"); in make test since the
+  # About 2 min at real_time_factor 0 (doc/calibration_run.md); in make test since the
   # odometry node tests run at 0 in lockstep too and left the time for it.
   add_rostest(test/report/calibrate_run.test
     DEPENDENCIES test_calibrate_run camera_calibration_node wheel_calibration_node
                  odometry_calibration_node run_report_node sim_node)
+  # Robot mode (real_time_factor 1, robot_real.yaml): the camera and wheel stages, about 2.5 min.
+  add_rostest(test/report/calibrate_run_robot.test
+    DEPENDENCIES test_calibrate_run camera_calibration_node wheel_calibration_node
+                 run_report_node sim_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

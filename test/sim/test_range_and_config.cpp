@@ -147,7 +147,6 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   const sim::RobotConfig real = sim::loadRobotConfig(kSource + "/sim/config/robot_real.yaml");
   EXPECT_GT(real.breakaway_duty_left, real.deadband);
   EXPECT_GT(real.breakaway_duty_right, real.deadband);
-  EXPECT_NE(real.backward_gain_ratio_left, 1.0);
   EXPECT_LT(real.gain_drift_per_min, 0.0);
   EXPECT_GE(real.transport.camera.latency_s, 0.05);
   EXPECT_GT(real.transport.camera.drop_probability, 0.0);
@@ -161,6 +160,11 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   const sim::RobotConfig r = sim::parseRobotConfig(bare, "robot.yaml");
   EXPECT_EQ(r.breakaway_duty_left, r.deadband);
   EXPECT_FALSE(r.transport.camera.active());
+  const sim::RobotConfig weak_back = sim::parseRobotConfig(
+      replaced(base, "backward_gain_ratio_left: 1.0", "backward_gain_ratio_left: 0.95"),
+      "robot.yaml");
+  EXPECT_EQ(weak_back.backward_gain_ratio_left, 0.95);
+  EXPECT_EQ(weak_back.backward_gain_ratio_right, 1.0);
   EXPECT_NE(robotError(replaced(base, "breakaway_duty_left: 0.08", "breakaway_duty_left: 0.05"))
                 .find("breakaway_duty_left: must be in [deadband"),
             std::string::npos);

@@ -46,6 +46,13 @@ using autocal::test::testParam;
 
 std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"; }
 
+/// Every subscriber has a publisher.
+bool allConnected(const std::vector<ros::Subscriber>& subs) {
+  for (const auto& sub : subs)
+    if (sub.getNumPublishers() == 0) return false;
+  return true;
+}
+
 /// Header stamps received per topic.
 struct StampLog {
   std::map<std::string, std::vector<double>> stamps;
@@ -119,13 +126,7 @@ TEST(SimNode, PublishesEveryTopicAtItsRateOnSimTime) {
 
   // Connected to every publisher first, then start the simulator (it holds time at 0 until a
   // node publishes on wheels_cmd).
-  ASSERT_TRUE(spinUntil(
-      [&] {
-        for (const auto& sub : subs)
-          if (sub.getNumPublishers() == 0) return false;
-        return true;
-      },
-      60.0));
+  ASSERT_TRUE(spinUntil([&] { return allConnected(subs); }, 60.0));
   ros::Publisher start = nh.advertise<WheelsCmdStamped>("wheels_driver_node/wheels_cmd", 1);
   // Measure over a window of sim time well after the start.
   const double t0 = testParam<double>("window_start_s"), t1 = testParam<double>("window_end_s");
@@ -362,13 +363,7 @@ TEST(SimNode, MessagesArriveLateWithTheirCaptureStampsInOrder) {
   subs.push_back(nh.subscribe<nav_msgs::Odometry>(
       "sim/ground_truth", 10000,
       [&](const nav_msgs::Odometry::ConstPtr& m) { truth.push_back(*m); }));
-  ASSERT_TRUE(spinUntil(
-      [&] {
-        for (const auto& sub : subs)
-          if (sub.getNumPublishers() == 0) return false;
-        return true;
-      },
-      60.0));
+  ASSERT_TRUE(spinUntil([&] { return allConnected(subs); }, 60.0));
   ros::Publisher cmd_pub = nh.advertise<WheelsCmdStamped>("wheels_driver_node/wheels_cmd", 10);
   ASSERT_TRUE(spinUntil([&] { return cmd_pub.getNumSubscribers() > 0; }, 30.0));
   ASSERT_TRUE(spinUntilSimTime(1.0, 60.0));

@@ -7,7 +7,7 @@ Fails when
       row `~name` in the Parameters table of its page doc/nodes/<node>.md;
   (b) a page's Parameters table lists a `~name` the code no longer reads;
   (c) README.md is longer than 260 lines;
-  (d) README.md, BENCHMARKS.md or a file under doc/ names a tracker issue ("issue 12"),
+  (d) README.md, BENCHMARKS.md or a file under doc/ names a tracker issue ("issue" and a number),
       DESIGN.md or ../shared, or holds a date such as 2026-11-24 (history goes to CHANGELOG.rst);
   (e) a relative link in README.md or doc/**/*.md points to a file that does not exist;
 and checks that every node page follows the one template, and that no node reading parameters is

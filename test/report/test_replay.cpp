@@ -74,7 +74,9 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
   fs::remove(bag);
   ros::NodeHandle nh;
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary); }, 400.0)) << summary;
-  ASSERT_EQ(YamlMap::loadFile(summary.string()).required<std::string>("result"), "success");
+  ASSERT_EQ(YamlMap::loadFile(summary.string()).required<std::string>("result"), "success")
+      << "the live run failed:\n"
+      << readText(summary);
   autocal::test::spinUntilSimTime(ros::Time::now().toSec() + 0.5, 10);
   const int recorder = autocal::ros_layer::nodePid(testParam<std::string>("recorder"));
   ASSERT_GT(recorder, 0) << "rosbag record is not running";
@@ -142,9 +144,8 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
             << " s)" << std::endl;
   const fs::path cut_root = root / "cut";
   fs::remove_all(cut_root);
-  EXPECT_EQ(replay("bag:=" + bag.string() + " veh:=" + veh + " rate:=" + rate +
-                       " duration_s:=" + std::to_string(cut_s) +
-                       " calibration_root:=" + cut_root.string(),
+  EXPECT_EQ(replay("bag:=" + bag.string() + " veh:=" + veh + " rate:=" + rate + " duration_s:=" +
+                       std::to_string(cut_s) + " calibration_root:=" + cut_root.string(),
                    root / "cut.log"),
             1);
   const Files cut = readFiles(cut_root, veh);

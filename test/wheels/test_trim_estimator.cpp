@@ -43,6 +43,26 @@ TEST(TrimEstimator, OneNoiselessDriveGivesTheExactCorrection) {
   EXPECT_NEAR(est.ratio(), 1 / c, 1e-12);  // far from straight: the full step
 }
 
+TEST(TrimEstimator, RebasedRatioConvergesInTheNewModelWithItsHistoryScaled) {
+  // The same duties are ratio r in the old model and s·r in the new one: a robot whose true factor
+  // is c·r in the old model is (c/s)·r' in the new one, and must converge to s/c.
+  wheels::TrimEstimatorOptions o;
+  wheels::TrimEstimator est(o);
+  const double c = 1.06, s = 1.05, phi = 10;
+  auto drive = [&](double factor) {
+    est.addDrive(o.wheel_radius_m * (factor * est.ratio() - 1) * phi / o.wheelbase_m, phi);
+  };
+  drive(c);
+  const double before = est.history().front().ratio_after;
+  est.rebase(s * est.ratio());
+  EXPECT_NEAR(est.history().front().ratio_after, s * before, 1e-12);
+  EXPECT_NEAR(est.history().front().ratio_before, s * 1.0, 1e-12);
+  while (!est.converged()) drive(c / s);
+  EXPECT_NEAR(est.ratio(), s / c, 1e-4);
+  EXPECT_THROW(est.rebase(0.0), InputError);
+  EXPECT_THROW(est.rebase(std::nan("")), InputError);
+}
+
 TEST(TrimEstimator, NearStraightTheUpdateIsThePapersHalfStep) {
   wheels::TrimEstimatorOptions o;
   wheels::TrimEstimator est(o);

@@ -155,6 +155,22 @@ TEST(WheelRunInSim, ProbeMinimaOneDutyStepApartAreOneDeadband) {
     EXPECT_LT(std::abs(it.delta_theta_rad), 0.1);  // ... in any drive
 }
 
+// A loaded machine's camera stage once found 0.11 and 0.13 for the default robot's two deadbands
+// of 0.08: two duty steps apart, kept as two guesses. The first drives learned k through them
+// (k 0.969 where the fitted offsets need 1.02), and when the fit replaced the guesses the next
+// drive turned 30 deg and the robot left the tag field. The fit must rebase k
+// (wheels::addDriveToFit): no drive turns by more than the first.
+TEST(WheelRunInSim, GuessesTwoDutyStepsApartForEqualDeadbands) {
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::WorldConfig world = defaultWorld();
+  const wheels::DeadbandGuesses g = wheels::deadbandGuesses(0.11, 0.13, 0.01);
+  ASSERT_NE(g.left, g.right);
+  const Outcome o = calibrateAndValidate(robot, world, g.left, false, nullptr, g.right);
+  expectCalibrated(o, world);
+  ASSERT_FALSE(o.run.iterations.empty());
+  for (const auto& it : o.run.iterations) EXPECT_LT(std::abs(it.delta_theta_rad), 0.1);
+}
+
 TEST(WheelRunDeadbandGuesses, MinimaWithinTheProbeStepAreAveragedOthersKept) {
   const wheels::DeadbandGuesses a = wheels::deadbandGuesses(0.10, 0.11, 0.01);
   EXPECT_DOUBLE_EQ(a.left, 0.105);
@@ -219,10 +235,13 @@ TEST(WheelRunInSim, RealRobotLateMessagesStaticFrictionLostFrames) {
 // holds: the same trim within 0.002 (issue: within 0.005) and deadbands within 0.003, and so drives
 // as straight by the truth; the intrinsics come 15 s into the recording, the frames wanted before
 // are kept and detected then.
+/// The replay starts from the default kinematics, as the node's replay does (it does not see the
+/// live run's deadband guesses; it reads them off the first drive's duties).
 void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess,
-                         double commands_late_s = 0.0) {
-  LateCommandsTap tap(optionsFor(robot, deadband_guess), robot.camera.truth, 15.0, commands_late_s);
-  const Outcome live = calibrateAndValidate(robot, defaultWorld(), deadband_guess, false, &tap);
+                         double commands_late_s = 0.0, double deadband_guess_right = -1) {
+  LateCommandsTap tap(wheels::WheelRunOptions(), robot.camera.truth, 15.0, commands_late_s);
+  const Outcome live = calibrateAndValidate(robot, defaultWorld(), deadband_guess, false, &tap,
+                                            deadband_guess_right);
   expectCalibrated(live, defaultWorld());
   const wheels::WheelReplayResult r = tap.replay.result();
   std::printf(
@@ -255,6 +274,12 @@ TEST(WheelReplayInSim, LeftWheelStrongTrimPlus008WideDeadband) {
 TEST(WheelReplayInSim, CommandsRecordedLate) {
   const sim::RobotConfig robot = robotConfig("robot.yaml");
   expectReplayMatches(robot, robot.deadband + 0.007, 0.7);
+}
+
+// The live run's guesses two duty steps apart (0.11/0.13 for 0.08/0.08): the fit rebases k, in
+// the replay as live.
+TEST(WheelReplayInSim, GuessesTwoDutyStepsApart) {
+  expectReplayMatches(robotConfig("robot.yaml"), 0.11, 0.0, 0.13);
 }
 
 TEST(WheelReplay, ARecordingWithoutTheIterationIsAClearError) {

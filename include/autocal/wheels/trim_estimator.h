@@ -73,6 +73,11 @@ class TrimEstimator {
   /// many rejected drives, not converged within max_iterations); InputError on a non-finite or
   /// non-positive angle. Must not be called once converged().
   const TrimIteration& addDrive(double delta_theta_rad, double left_angle_rad);
+  /// Re-expresses k as `ratio` [> 0]: the drives so far were commanded through deadband offsets
+  /// that the motor fit has since moved, and the same duties are now written with another k
+  /// (rebaseOnFit in wheel_run.h). The history's k before and after each drive are scaled alike,
+  /// so the converged mean stays in one model. Throws InputError on a non-positive ratio.
+  void rebase(double ratio);
 
   bool converged() const { return converged_; }
   int iterations() const { return static_cast<int>(history_.size()); }

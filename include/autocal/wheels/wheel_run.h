@@ -137,13 +137,22 @@ MotorFitOptions motorFitOptions(const WheelRunOptions& options);
 KinematicsParams calibratedKinematics(const KinematicsParams& before, double ratio,
                                       const MotorFitter& fit, bool compensate_deadband);
 
+/// Adds a drive to the motor fit. When the fit moves the offsets, the estimator's k is rebased so
+/// that a drive at drive_speed_mps is commanded with the duties it was before: k was learned
+/// through the old offsets (first the camera stage's guesses), and the same k through new offsets
+/// is another pair of duties. Without this, guesses that differ from the fitted offsets by a few
+/// hundredths (0.11/0.13 for 0.08/0.08) make the next drive turn by tens of degrees.
+void addDriveToFit(const DriveRecord& drive, int ticks_per_revolution,
+                   const KinematicsParams& before, double drive_speed_mps, MotorFitter& fit,
+                   TrimEstimator& estimator);
+
 /// The first guesses of the two deadbands [duty] from the camera stage's minimum moving duties.
 /// The probe finds each only to its duty step (and the tick the wheel rested on), so two minima
 /// within `resolution` of each other are one deadband seen twice: both wheels get their mean. Two
 /// different guesses for equal deadbands bias the first drives' speed ratio (0.10/0.11 for 0.08
-/// and 0.08: 3 %, the first drive measured with the wrong sign) and the ratio then jumps when the
-/// fitted deadbands replace the guesses (a turn of 13-15 deg in the next drive). Minima further
-/// apart are two different deadbands and are kept.
+/// and 0.08: 3 %, the first drive measured with the wrong sign; addDriveToFit rebases the ratio
+/// when the fitted deadbands replace the guesses). Minima further apart are two different
+/// deadbands and are kept.
 struct DeadbandGuesses {
   double left = 0, right = 0;
 };

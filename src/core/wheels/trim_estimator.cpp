@@ -98,5 +98,17 @@ const TrimIteration& TrimEstimator::addDrive(double delta_theta_rad, double left
   return history_.back();
 }
 
+void TrimEstimator::rebase(double ratio) {
+  if (!(ratio > 0) || !std::isfinite(ratio))
+    throw InputError("a wheel speed ratio must be a positive number, got " + formatNumber(ratio));
+  const double scale = ratio / ratio_;
+  for (TrimIteration& it : history_) {
+    it.ratio_before *= scale;
+    it.ratio_after *= scale;
+    it.step *= scale;
+  }
+  ratio_ = ratio;
+}
+
 }  // namespace wheels
 }  // namespace autocal

@@ -17,6 +17,23 @@ namespace wheels {
 namespace {
 /// A duty this small is no command [1].
 constexpr double kZeroDuty = 1e-6;
+
+/// The deadband offsets the live run commanded its first drive through: it drove both wheels at
+/// drive_speed_mps with the initial ratio, d = o + (1 − o)·u, so o = (d − u)/(1 − u). The live
+/// run's guesses came from the camera stage's probe or a parameter, which the replay does not
+/// see; the fit's rebase of k (addDriveToFit) starts from them.
+KinematicsParams withFirstDriveOffsets(KinematicsParams p, const WheelDuties& duties,
+                                       const WheelRunOptions& o) {
+  const double trim = trimFromSpeedRatio(o.trim.initial_ratio, p.gain);
+  const double w = o.drive_speed_mps / p.radius;
+  auto offset = [](double duty, double u, double guess) {
+    const double offset = (std::abs(duty) - u) / (1 - u);
+    return u < 1 && offset >= 0 && offset < 0.6 ? offset : guess;
+  };
+  p.deadband_left = offset(duties.left, (p.gain - trim) * w / p.k, p.deadband_left);
+  p.deadband_right = offset(duties.right, (p.gain + trim) * w / p.k, p.deadband_right);
+  return p;
+}
 }  // namespace
 
 WheelReplay::WheelReplay(const WheelRunOptions& options) : options_(options) {
@@ -230,6 +247,11 @@ WheelReplayResult WheelReplay::result() const {
     if (i + 1 < n && all[i + 1].kind != Kind::kStill) return readingAt(all[i + 1].start_s).left;
     return readings_.back().left;
   };
+  KinematicsParams commanded = options_.kinematics;
+  const auto first_forward = std::find_if(
+      all.begin(), all.end(), [](const Segment& s) { return s.kind == Kind::kForward; });
+  if (options_.compensate_deadband && first_forward != all.end())
+    commanded = withFirstDriveOffsets(commanded, first_forward->drive.duties, options_);
   bool last_forward_counted = false;
   for (size_t i = 0; i < n; ++i) {
     const Segment& s = all[i];
@@ -240,8 +262,10 @@ WheelReplayResult WheelReplay::result() const {
     }
     if (s.kind == Kind::kBack) {
       // WheelRun fits the drive back of an iteration, not the one of a leave (there is none).
-      if (last_forward_counted && options_.compensate_deadband)
-        fitter.addDrive(s.drive, ticks_per_rev_);
+      if (last_forward_counted && options_.compensate_deadband) {
+        addDriveToFit(s.drive, ticks_per_rev_, commanded, options_.drive_speed_mps, fitter,
+                      estimator);
+      }
       last_forward_counted = false;
       continue;
     }
@@ -252,7 +276,10 @@ WheelReplayResult WheelReplay::result() const {
         i + 2 < n && all[i + 1].kind == Kind::kStill && all[i + 2].kind == Kind::kBack;
     if (!last_forward_counted) continue;
     ++out.drives;
-    if (options_.compensate_deadband) fitter.addDrive(s.drive, ticks_per_rev_);
+    if (options_.compensate_deadband) {
+      addDriveToFit(s.drive, ticks_per_rev_, commanded, options_.drive_speed_mps, fitter,
+                    estimator);
+    }
     if (estimator.converged()) continue;
     const bool still_before = i > 0 && all[i - 1].kind == Kind::kStill;
     const HeadingMeasurement before =
@@ -276,8 +303,8 @@ WheelReplayResult WheelReplay::result() const {
   out.iterations = estimator.history();
   out.left = fitter.left();
   out.right = fitter.right();
-  out.kinematics = calibratedKinematics(options_.kinematics, estimator.ratio(), fitter,
-                                        options_.compensate_deadband);
+  out.kinematics =
+      calibratedKinematics(commanded, estimator.ratio(), fitter, options_.compensate_deadband);
   return out;
 }
 

@@ -180,6 +180,24 @@ KinematicsParams calibratedKinematics(const KinematicsParams& before, double rat
   return p;
 }
 
+void addDriveToFit(const DriveRecord& drive, int ticks_per_revolution,
+                   const KinematicsParams& before, double drive_speed_mps, MotorFitter& fit,
+                   TrimEstimator& estimator) {
+  const KinematicsParams old_params =
+      calibratedKinematics(before, estimator.ratio(), fit, /*compensate_deadband=*/true);
+  const double w = drive_speed_mps / old_params.radius;
+  const WheelDuties duties = speedsToDuties(old_params, {w, w});
+  fit.addDrive(drive, ticks_per_revolution);
+  const KinematicsParams p =
+      calibratedKinematics(before, estimator.ratio(), fit, /*compensate_deadband=*/true);
+  if (p.deadband_left == old_params.deadband_left && p.deadband_right == old_params.deadband_right)
+    return;
+  // The same duties above the new offsets: u_r/u_l = (gain + trim)/(gain - trim) = k.
+  const double u_left = removeDeadband(duties.left, p.deadband_left);
+  const double u_right = removeDeadband(duties.right, p.deadband_right);
+  if (u_left > 0 && u_right > 0) estimator.rebase(u_right / u_left);
+}
+
 DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, double resolution) {
   if (std::abs(min_duty_left - min_duty_right) <= resolution + 1e-9) {
     const double mean = 0.5 * (min_duty_left + min_duty_right);
@@ -295,7 +313,10 @@ bool WheelRun::settled(double now_s) const {
 }
 
 void WheelRun::recordDriveForFit() {
-  if (options_.compensate_deadband) fitter_.addDrive(drive_, ticks_per_rev_);
+  if (options_.compensate_deadband) {
+    addDriveToFit(drive_, ticks_per_rev_, options_.kinematics, options_.drive_speed_mps, fitter_,
+                  estimator_);
+  }
 }
 
 void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {

@@ -141,6 +141,8 @@ RobotConfig readRobot(YamlMap& m) {
   if (std::abs(c.pitch_rad) > 1.4) cam.fail("pitch_rad", "must be within [-1.4, 1.4] rad");
   c.x_m = cam.required<double>("x_m");
   c.y_m = cam.optional<double>("y_m", c.y_m);
+  c.yaw_rad = inRange(cam, "yaw_rad", c.yaw_rad, -0.5, 0.5);
+  c.roll_rad = inRange(cam, "roll_rad", c.roll_rad, -0.5, 0.5);
   c.rate_hz = positiveOr(cam, "rate_hz", c.rate_hz);
   c.exposure_s = inRange(cam, "exposure_s", c.exposure_s, 0.0, 1.0);
   c.supersampling = cam.optional<int>("supersampling", c.supersampling);
@@ -216,6 +218,20 @@ WorldConfig readWorld(YamlMap& m) {
     c.pose = readPose(t);
     t.finish();
     w.floor_tags.push_back(c);
+  }
+  for (YamlMap& b : m.optionalMapList("floor_boards")) {
+    FloorBoardConfig c;
+    c.cols = b.required<int>("cols");
+    c.rows = b.required<int>("rows");
+    if (c.cols < 2 || c.rows < 2 || c.cols > 40 || c.rows > 40) {
+      b.fail("cols", "inner corners must be 2..40 in each direction");
+    }
+    c.square_m = positive(b, "square_m");
+    c.margin_m = b.optional<double>("margin_m", c.margin_m);
+    if (c.margin_m < 0) b.fail("margin_m", "must be >= 0");
+    c.pose = readPose(b);
+    b.finish();
+    w.floor_boards.push_back(c);
   }
   for (YamlMap& l : m.optionalMapList("lane_lines")) {
     LaneLineConfig c;

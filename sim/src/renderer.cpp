@@ -127,7 +127,8 @@ struct FloorFeature {
   Eigen::Vector2d c, u;  // centre, unit axis (tag: its x axis; line: along the line)
   double hu = 0, hv = 0;  // half extents along u and along its left normal
   std::vector<uint8_t> bitmap;  // tag: total_width^2 cells, row-major, 0 = black
-  int cells = 0;                // tag: total_width
+  int cells = 0;                // bitmap columns (along u); tag: total_width
+  int cells_v = 0;              // bitmap rows (against u's left normal)
   double cell = 0;              // tag: cell edge [m]
   double dash = 0, period = 0;  // line: dash length and dash + gap (0: solid)
   Rgb color;
@@ -344,11 +345,38 @@ Scene::Scene(const WorldConfig& world) : world_(world), floor_color_(rgb(world.f
     }
     std::free(im->buf);
     std::free(im);
+    f.cells_v = f.cells;
     f.cell = t.size_m / family->width_at_border;
     f.hu = f.hv = 0.5 * f.cell * f.cells;
     features_.push_back(std::move(f));
   }
   tag36h11_destroy(family);
+  // Chessboards on the floor: their squares as a bitmap (rows of squares counting along the
+  // board's yaw, columns to its left), then their white margin behind them.
+  for (const FloorBoardConfig& b : world.floor_boards) {
+    FloorFeature f;
+    f.is_tag = true;
+    f.c = Eigen::Vector2d(b.pose.x_m, b.pose.y_m);
+    const Eigen::Vector2d along(std::cos(b.pose.yaw_rad), std::sin(b.pose.yaw_rad));
+    f.u = Eigen::Vector2d(-along.y(), along.x());  // columns run to the left
+    f.cells = b.cols + 1;
+    f.cells_v = b.rows + 1;
+    f.cell = b.square_m;
+    f.hu = 0.5 * f.cell * f.cells;
+    f.hv = 0.5 * f.cell * f.cells_v;
+    f.bitmap.resize(static_cast<size_t>(f.cells * f.cells_v));
+    for (int r = 0; r < f.cells_v; ++r) {
+      for (int c = 0; c < f.cells; ++c) f.bitmap[r * f.cells + c] = (r + c) % 2 ? 255 : 0;
+    }
+    FloorFeature margin;
+    margin.c = f.c;
+    margin.u = f.u;
+    margin.hu = f.hu + b.margin_m;
+    margin.hv = f.hv + b.margin_m;
+    margin.color = kPaperWhite;
+    features_.push_back(std::move(f));
+    features_.push_back(std::move(margin));
+  }
   for (const LaneLineConfig& l : world.lane_lines) {
     const Eigen::Vector2d a(l.x0_m, l.y0_m), b(l.x1_m, l.y1_m);
     const double len = (b - a).norm();
@@ -471,8 +499,8 @@ Rgb Scene::floorColor(double x, double y, bool* marked) const {
         if (!f.is_tag) return f.color;
         // Bitmap column grows along the tag's x (u), its row grows against the tag's up (b).
         const int col = static_cast<int>(std::floor(a / f.cell + 0.5 * f.cells));
-        const int row = static_cast<int>(std::floor(-b / f.cell + 0.5 * f.cells));
-        if (col < 0 || row < 0 || col >= f.cells || row >= f.cells) continue;
+        const int row = static_cast<int>(std::floor(-b / f.cell + 0.5 * f.cells_v));
+        if (col < 0 || row < 0 || col >= f.cells || row >= f.cells_v) continue;
         return f.bitmap[row * f.cells + col] ? kPaperWhite : kPrintBlack;
       }
     }
@@ -647,7 +675,7 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
   }
   // Rays through the pixel corners (OpenCV: pixel centres at integers, so corners at half
   // integers), turned into the robot frame once: the camera is fixed on the robot.
-  const Eigen::Matrix3d robot_cam = cameraToRobotRotation(camera.pitch_rad);
+  const Eigen::Matrix3d robot_cam = cameraToRobotRotation(camera);
   const size_t n = static_cast<size_t>((width_ + 1) * (height_ + 1));
   corner_dirs_.resize(n);
   corner_bins_.resize(n);

@@ -1,25 +1,33 @@
 #include "autocal/sim/scene.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace autocal {
 namespace sim {
 
-Eigen::Matrix3d cameraToRobotRotation(double pitch_rad) {
+Eigen::Matrix3d cameraToRobotRotation(double pitch_rad, double yaw_rad, double roll_rad) {
   const double c = std::cos(pitch_rad), s = std::sin(pitch_rad);
   Eigen::Matrix3d R;
-  // Columns: the camera's x (right), y (down) and z (optical axis) in the robot frame.
+  // Columns: the camera's x (right), y (down) and z (optical axis) in the robot frame, tilted down
+  // by the pitch; then turned about the robot's z by the yaw, and about the optical axis by the
+  // roll.
   R.col(0) = Eigen::Vector3d(0, -1, 0);
   R.col(1) = Eigen::Vector3d(-s, 0, -c);
   R.col(2) = Eigen::Vector3d(c, 0, -s);
-  return R;
+  return Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R *
+         Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+Eigen::Matrix3d cameraToRobotRotation(const CameraConfig& camera) {
+  return cameraToRobotRotation(camera.pitch_rad, camera.yaw_rad, camera.roll_rad);
 }
 
 Eigen::Isometry3d cameraInWorld(const CameraConfig& camera, const Pose2& robot) {
   const Eigen::Matrix3d world_robot =
       Eigen::AngleAxisd(robot.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = world_robot * cameraToRobotRotation(camera.pitch_rad);
+  T.linear() = world_robot * cameraToRobotRotation(camera);
   T.translation() = Eigen::Vector3d(robot.x_m, robot.y_m, 0) +
                     world_robot * Eigen::Vector3d(camera.x_m, camera.y_m, camera.height_m);
   return T;

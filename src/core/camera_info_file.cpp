@@ -62,6 +62,21 @@ CameraIntrinsics fromMap(YamlMap& y) {
 
 }  // namespace
 
+CameraInfoFile loadCameraInfoFile(const std::string& path) {
+  YamlMap y = YamlMap::loadFile(path);
+  CameraInfoFile f;
+  f.intrinsics = fromMap(y);
+  if (y.has("rectification_matrix")) {
+    const std::vector<double> r = matrixData(y, "rectification_matrix", 3, 3);
+    for (int i = 0; i < 9; ++i) f.rectification(i / 3, i % 3) = r[static_cast<size_t>(i)];
+  }
+  const std::vector<double> p = matrixData(y, "projection_matrix", 3, 4);
+  for (int i = 0; i < 12; ++i) f.projection(i / 4, i % 4) = p[static_cast<size_t>(i)];
+  if (!(f.projection(0, 0) > 0 && f.projection(1, 1) > 0))
+    y.fail("projection_matrix", "fx and fy must be > 0 [px]");
+  return f;
+}
+
 CameraIntrinsics loadCameraInfoYaml(const std::string& path) {
   YamlMap y = YamlMap::loadFile(path);
   return fromMap(y);

@@ -1,6 +1,9 @@
 #include "autocal/io/format.h"
 
+#include <cmath>
 #include <sstream>
+
+#include "autocal/errors.h"
 
 namespace autocal {
 
@@ -21,6 +24,28 @@ std::vector<std::string> splitCommaList(const std::string& text) {
     if (!item.empty()) out.push_back(item);
   }
   return out;
+}
+
+double parseNumberArg(const std::string& flag, const std::string& text) {
+  size_t used = 0;
+  double v = NAN;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !std::isfinite(v)) {
+    throw UsageError(flag + ": expected a number, got '" + text + "'");
+  }
+  return v;
+}
+
+int parseIntArg(const std::string& flag, const std::string& text) {
+  const double v = parseNumberArg(flag, text);
+  if (v != std::floor(v) || std::abs(v) > 1e6) {
+    throw UsageError(flag + ": expected an integer, got '" + text + "'");
+  }
+  return static_cast<int>(v);
 }
 
 }  // namespace autocal

@@ -52,20 +52,6 @@ struct Args {
   bool help = false;
 };
 
-double parseNumber(const std::string& flag, const std::string& text) {
-  size_t used = 0;
-  double v = NAN;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v)) {
-    throw UsageError(flag + ": expected a number, got '" + text + "'");
-  }
-  return v;
-}
-
 Args parseArgs(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
@@ -88,20 +74,20 @@ Args parseArgs(int argc, char** argv) {
       std::stringstream list(value);
       std::string item;
       while (std::getline(list, item, ',')) {
-        const double l = parseNumber(flag, item);
+        const double l = parseNumberArg(flag, item);
         if (l <= 0) throw UsageError(flag + ": a length must be > 0 [m], got '" + item + "'");
         a.lengths_m.push_back(l);
       }
     } else if (flag == "--wheel-radius-m") {
-      a.wheel_radius_m = parseNumber(flag, value);
+      a.wheel_radius_m = parseNumberArg(flag, value);
     } else if (flag == "--wheelbase-m") {
-      a.wheelbase_m = parseNumber(flag, value);
+      a.wheelbase_m = parseNumberArg(flag, value);
     } else if (flag == "--ticks-per-revolution") {
-      a.ticks_per_revolution = static_cast<int>(parseNumber(flag, value));
+      a.ticks_per_revolution = static_cast<int>(parseNumberArg(flag, value));
     } else if (flag == "--rounds") {
-      a.rounds = static_cast<int>(parseNumber(flag, value));
+      a.rounds = static_cast<int>(parseNumberArg(flag, value));
     } else if (flag == "--max-heading-deviation-rad") {
-      a.max_heading_deviation_rad = parseNumber(flag, value);
+      a.max_heading_deviation_rad = parseNumberArg(flag, value);
     } else {
       throw UsageError("unknown option " + flag);
     }

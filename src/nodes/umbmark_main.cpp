@@ -33,20 +33,6 @@ struct Args {
   bool help = false;
 };
 
-double parseNumber(const std::string& flag, const std::string& text) {
-  size_t used = 0;
-  double v = NAN;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v)) {
-    throw UsageError(flag + ": expected a number, got '" + text + "'");
-  }
-  return v;
-}
-
 Args parseArgs(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
@@ -60,9 +46,9 @@ Args parseArgs(int argc, char** argv) {
     if (flag == "--errors")
       a.errors_file = value;
     else if (flag == "--side")
-      a.side_m = parseNumber(flag, value);
+      a.side_m = parseNumberArg(flag, value);
     else if (flag == "--wheelbase")
-      a.wheelbase_m = parseNumber(flag, value);
+      a.wheelbase_m = parseNumberArg(flag, value);
     else if (flag == "--expressions")
       a.expressions = value;
     else if (flag == "--out")

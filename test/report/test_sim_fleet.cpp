@@ -15,6 +15,7 @@
 #include "autocal/wheels/kinematics.h"
 #include "support/ros_wait.h"
 #include "support/test_params.h"
+#include "support/wheels_in_sim.h"
 
 namespace {
 
@@ -56,7 +57,12 @@ TEST(SimFleet, EveryRobotCalibratedAgainstItsOwnTruth) {
               << trim_true << ")" << std::endl;
     EXPECT_NEAR(k[0], robot.camera.truth.fx, 0.005 * robot.camera.truth.fx) << veh;
     EXPECT_NEAR(k[4], robot.camera.truth.fy, 0.005 * robot.camera.truth.fy) << veh;
-    EXPECT_NEAR(kin.trim, trim_true, 0.005) << veh;
+    EXPECT_NEAR(kin.trim, trim_true, 0.01) << veh;
+    for (const auto& d : autocal::test::straightDrifts(robot, kin)) {
+      std::cout << "drift over 2 m at " << d.speed_mps << " m/s: " << d.drift_m << " m"
+                << std::endl;
+      EXPECT_LE(d.drift_m, d.bound_m) << veh << " at " << d.speed_mps << " m/s";
+    }
   }
   ASSERT_TRUE(spinUntil([&] { return fleet_end.has_value(); }, 30.0))
       << "fleet_report_node did not end";

@@ -123,5 +123,13 @@ double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsPar
   return std::nan("");
 }
 
+std::vector<StraightDrift> straightDrifts(const sim::RobotConfig& robot,
+                                          const wheels::KinematicsParams& params) {
+  std::vector<StraightDrift> out;
+  for (double v : {0.15, 0.25, 0.4})
+    out.push_back({v, straightDriftM(robot, params, v), v == 0.25 ? 0.02 : 0.03});
+  return out;
+}
+
 }  // namespace test
 }  // namespace autocal

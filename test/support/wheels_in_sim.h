@@ -44,5 +44,15 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
 double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsParams& params,
                       double speed_mps, double distance_m = 2.0);
 
+/// The wheel stage's targets on the simulator's truth: straightDriftM at 0.15, 0.25 and 0.4 m/s,
+/// at most 2 cm at 0.25 (the calibration's speed) and 3 cm at the others. The trim alone is no
+/// measure when the deadbands are compensated: a trim and offsets that differ together by a few
+/// thousandths command the same duties.
+struct StraightDrift {
+  double speed_mps = 0, drift_m = 0, bound_m = 0;
+};
+std::vector<StraightDrift> straightDrifts(const sim::RobotConfig& robot,
+                                          const wheels::KinematicsParams& params);
+
 }  // namespace test
 }  // namespace autocal

@@ -2,6 +2,7 @@
 // without ROS, for the core and for commands that need no master.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "autocal/camera_intrinsics.h"
@@ -17,5 +18,16 @@ CameraIntrinsics loadCameraInfoYaml(const std::string& path);
 
 /// The same from the text of such a file; `file` names it in messages.
 CameraIntrinsics parseCameraInfoYaml(const std::string& text, const std::string& file);
+
+/// A camera_info YAML with the matrices of its rectified image.
+struct CameraInfoFile {
+  CameraIntrinsics intrinsics;
+  cv::Matx33d rectification = cv::Matx33d::eye();  ///< R (the identity when absent)
+  cv::Matx34d projection;                          ///< P
+};
+
+/// The whole camera_info YAML: as loadCameraInfoYaml, and rectification_matrix (3x3, optional)
+/// and projection_matrix (3x4, required, with P's fx and fy > 0).
+CameraInfoFile loadCameraInfoFile(const std::string& path);
 
 }  // namespace autocal

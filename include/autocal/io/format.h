@@ -14,4 +14,10 @@ std::string formatNumber(double value, int significant_digits = 10);
 /// dropped (list parameters given as one string, e.g. ~stages, ~vehicles).
 std::vector<std::string> splitCommaList(const std::string& text);
 
+/// A command-line option's value as a finite number; throws UsageError "<flag>: expected a
+/// number, got '<text>'".
+double parseNumberArg(const std::string& flag, const std::string& text);
+/// The same for an integer (|value| <= 1e6).
+int parseIntArg(const std::string& flag, const std::string& text);
+
 }  // namespace autocal

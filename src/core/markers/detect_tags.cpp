@@ -37,33 +37,11 @@ const char* const kDetectTagsUsage =
 
 namespace {
 
-double parseNumber(const std::string& flag, const std::string& text) {
-  size_t used = 0;
-  double v = NAN;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(v)) {
-    throw UsageError(flag + ": expected a number, got '" + text + "'");
-  }
-  return v;
-}
-
-int parseInt(const std::string& flag, const std::string& text) {
-  const double v = parseNumber(flag, text);
-  if (v != std::floor(v) || std::abs(v) > 1e6) {
-    throw UsageError(flag + ": expected an integer, got '" + text + "'");
-  }
-  return static_cast<int>(v);
-}
-
 cv::Vec3d parseVector(const std::string& flag, const std::string& text) {
   std::vector<double> v;
   std::stringstream ss(text);
   std::string item;
-  while (std::getline(ss, item, ',')) v.push_back(parseNumber(flag, item));
+  while (std::getline(ss, item, ',')) v.push_back(parseNumberArg(flag, item));
   if (v.size() != 3) throw UsageError(flag + ": expected x,y,z, got '" + text + "'");
   const cv::Vec3d n(v[0], v[1], v[2]);
   if (cv::norm(n) < 1e-9) throw UsageError(flag + ": the normal must not be zero");
@@ -118,16 +96,16 @@ DetectTagsArgs parseDetectTagsArgs(const std::vector<std::string>& args) {
     } else if (flag == "--camera-info") {
       a.camera_info = value;
     } else if (flag == "--tag-size") {
-      a.detector.tag_size_m = parseNumber(flag, value);
+      a.detector.tag_size_m = parseNumberArg(flag, value);
       have_tag_size = true;
     } else if (flag == "--decimate") {
-      a.detector.decimate = parseNumber(flag, value);
+      a.detector.decimate = parseNumberArg(flag, value);
     } else if (flag == "--threads") {
-      a.detector.threads = parseInt(flag, value);
+      a.detector.threads = parseIntArg(flag, value);
     } else if (flag == "--max-hamming") {
-      a.detector.max_hamming = parseInt(flag, value);
+      a.detector.max_hamming = parseIntArg(flag, value);
     } else if (flag == "--min-decision-margin") {
-      a.detector.min_decision_margin = parseNumber(flag, value);
+      a.detector.min_decision_margin = parseNumberArg(flag, value);
     } else if (flag == "--refine-edges") {
       if (value != "0" && value != "1") throw UsageError(flag + ": expected 0 or 1");
       a.detector.refine_edges = value == "1";

@@ -27,6 +27,8 @@ struct CameraConfig {
   double pitch_rad = 0.3;    ///< downward tilt of the optical axis
   double x_m = 0.06;         ///< optical centre ahead of the wheel axle
   double y_m = 0.0;          ///< optical centre left of the robot's centre line
+  double yaw_rad = 0.0;      ///< optical axis turned left of the robot's x axis (after pitch)
+  double roll_rad = 0.0;     ///< about the optical axis; positive: the image's right side down
   double rate_hz = 30.0;
   double exposure_s = 0.02;  ///< motion during this time blurs the image
   int supersampling = 3;     ///< edge pixels get supersampling^2 samples (anti-aliasing)
@@ -102,6 +104,15 @@ struct FloorTagConfig {
   Pose2 pose;             ///< centre; yaw_rad is the direction of the tag's x axis (image right)
 };
 
+/// A chessboard lying flat on the floor (Duckietown's extrinsics board).
+struct FloorBoardConfig {
+  int cols = 7;  ///< inner corners across (to the left of yaw_rad)
+  int rows = 5;  ///< inner corners along yaw_rad
+  double square_m = 0.031;
+  double margin_m = 0.02;  ///< white border around the squares
+  Pose2 pose;              ///< centre of the squares; yaw_rad: the direction its rows count along
+};
+
 struct LaneLineConfig {
   double x0_m = 0, y0_m = 0, x1_m = 0, y1_m = 0;
   double width_m = 0.05;
@@ -128,6 +139,7 @@ struct WorldConfig {
   std::vector<double> floor_color{150, 150, 145};  ///< RGB 0..255
   std::vector<ChessboardConfig> chessboards;
   std::vector<FloorTagConfig> floor_tags;
+  std::vector<FloorBoardConfig> floor_boards;
   std::vector<LaneLineConfig> lane_lines;
   std::vector<WallConfig> walls;
   std::vector<ObstacleConfig> obstacles;

@@ -14,8 +14,12 @@ namespace autocal {
 namespace sim {
 
 /// Rotation taking camera-frame vectors to the robot frame for a camera pitched down by
-/// `pitch_rad` (optical axis ahead, tilted towards the floor).
-Eigen::Matrix3d cameraToRobotRotation(double pitch_rad);
+/// `pitch_rad` (optical axis ahead, tilted towards the floor), then turned left by `yaw_rad` about
+/// the robot's z axis, and by `roll_rad` about its optical axis (the image's right side down).
+Eigen::Matrix3d cameraToRobotRotation(double pitch_rad, double yaw_rad = 0.0,
+                                      double roll_rad = 0.0);
+/// The same for a robot's camera mount.
+Eigen::Matrix3d cameraToRobotRotation(const CameraConfig& camera);
 
 /// Pose of the camera in the world (maps camera-frame points to world points).
 Eigen::Isometry3d cameraInWorld(const CameraConfig& camera, const Pose2& robot);

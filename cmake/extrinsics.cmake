@@ -1,0 +1,29 @@
+# extrinsics: the camera's ground projection (core sources, the offline command, tests; included
+# from CMakeLists.txt).
+target_sources(autocal_core PRIVATE
+  src/core/extrinsics/ground_projection.cpp
+  src/core/extrinsics/floor_board.cpp
+  src/core/extrinsics/extrinsics_file.cpp)
+
+# The offline tool: Duckietown's board-on-the-floor procedure from one image (no ROS needed).
+add_executable(calibrate_extrinsics src/nodes/calibrate_extrinsics_main.cpp)
+target_link_libraries(calibrate_extrinsics autocal_core)
+target_compile_options(calibrate_extrinsics PRIVATE ${AUTOCAL_WARNINGS})
+set_target_properties(calibrate_extrinsics PROPERTIES
+  RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
+
+if(CATKIN_ENABLE_TESTING)
+  target_sources(autocal_test_support PRIVATE test/support/floor_truth.cpp)
+  autocal_core_gtest(test_ground_projection SOURCES test/extrinsics/test_ground_projection.cpp
+                     LIBS autocal_core)
+  # On the simulator's rendered board, judged by its true mount.
+  autocal_core_gtest(test_floor_board_in_sim SOURCES test/extrinsics/test_floor_board_in_sim.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
+  # The command end to end: a rendered image and a camera_info file in, the extrinsics file out.
+  autocal_core_gtest(test_calibrate_extrinsics_tool
+                     SOURCES test/extrinsics/test_calibrate_extrinsics_tool.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
+  target_compile_definitions(test_calibrate_extrinsics_tool PRIVATE
+                             AUTOCAL_TOOL="$<TARGET_FILE:calibrate_extrinsics>")
+  add_dependencies(test_calibrate_extrinsics_tool calibrate_extrinsics)
+endif()

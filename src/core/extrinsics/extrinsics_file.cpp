@@ -1,0 +1,146 @@
+// camera_extrinsic/<veh>.yaml and the offline command's arguments (see extrinsics_file.h).
+#include "autocal/extrinsics/extrinsics_file.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "autocal/errors.h"
+#include "autocal/io/camera_info_file.h"
+#include "autocal/io/format.h"
+#include "autocal/io/yaml_reader.h"
+
+namespace autocal {
+namespace extrinsics {
+
+namespace {
+
+std::string list(const Eigen::Matrix3d& m) {
+  std::string s = "[";
+  for (int i = 0; i < 9; ++i) s += (i ? ", " : "") + formatNumber(m(i / 3, i % 3), 10);
+  return s + "]";
+}
+
+std::string mountMap(const CameraMount& m) {
+  return "{height_m: " + formatNumber(m.height_m, 6) +
+         ", pitch_rad: " + formatNumber(m.pitch_rad, 6) +
+         ", roll_rad: " + formatNumber(m.roll_rad, 6) + ", yaw_rad: " + formatNumber(m.yaw_rad, 6) +
+         ", x_m: " + formatNumber(m.x_m, 6) + ", y_m: " + formatNumber(m.y_m, 6) + "}";
+}
+
+}  // namespace
+
+std::string extrinsicsYaml(const FloorBoardResult& r, const RectifiedCamera& camera,
+                           const std::string& source, const std::string& time_utc) {
+  std::ostringstream y;
+  y << "# autocal camera extrinsics, " << time_utc << ", from " << source << "\n"
+    << "# homography: a pixel (u, v) of the image rectified with projection_matrix to the floor\n"
+    << "# point (x forward, y left, metres; origin below the middle of the wheel axle):\n"
+    << "# [x, y, w] = H [u, v, 1], point (x/w, y/w) (dt-core GroundProjectionGeometry).\n"
+    << "homography: " << list(r.homography) << "\n"
+    << "# the camera's pose on the robot it comes from, and one standard deviation of each\n"
+    << "camera_pose: " << mountMap(r.mount) << "\n"
+    << "camera_pose_sigma: " << mountMap(r.mount_sigma) << "\n"
+    << "board_rms_m: " << formatNumber(r.board_rms_m, 4) << "\n"
+    << "board_max_m: " << formatNumber(r.board_max_m, 4) << "\n"
+    << "# the left 3x3 of the camera_info's P the homography is for\n"
+    << "projection_matrix: " << list(camera.P) << "\n";
+  return y.str();
+}
+
+Eigen::Matrix3d readHomography(const std::string& path) {
+  YamlMap y = YamlMap::loadFile(path);
+  const std::vector<double> h = y.required<std::vector<double>>("homography");
+  if (h.size() != 9) y.fail("homography", "must be 9 numbers (row-major 3x3)");
+  Eigen::Matrix3d H;
+  for (int i = 0; i < 9; ++i) {
+    if (!std::isfinite(h[static_cast<size_t>(i)])) y.fail("homography", "must be finite numbers");
+    H(i / 3, i % 3) = h[static_cast<size_t>(i)];
+  }
+  return H;
+}
+
+const char* const kExtrinsicsUsage =
+    "usage: rosrun autocal calibrate_extrinsics --image FILE --camera-info FILE.yaml --out "
+    "FILE.yaml\n"
+    "           [--board 7x5] [--square 0.031] [--offset-x 0.191] [--offset-y 0.093]\n"
+    "           [--max-board-rms 0.003]\n"
+    "Duckietown's board-on-the-floor extrinsics from one raw image: the board (inner corners\n"
+    "across x along the robot) lies flat in front of the robot, its nearest corner row offset-x\n"
+    "metres ahead of the wheel axle, its rightmost corner column offset-y metres right of the\n"
+    "centre line (the defaults are Duckietown's). The image is rectified with the camera_info's\n"
+    "K, D, R and P; the homography written is for that P. Refused (nothing written) when the\n"
+    "board is not found, its corners lie off the fitted pose, or the pose is none a Duckiebot can\n"
+    "have. Needs no master.\n"
+    "Exit status: 0 written; 1 refused; 2 unusable image; 3 bad camera_info; 4 cannot write;\n"
+    "  64 bad command line.\n";
+
+ExtrinsicsArgs parseExtrinsicsArgs(const std::vector<std::string>& args) {
+  ExtrinsicsArgs a;
+  FloorBoard& b = a.options.board;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& flag = args[i];
+    if (flag == "-h" || flag == "--help") {
+      a.help = true;
+      continue;
+    }
+    if (flag.rfind("--", 0) != 0) throw UsageError("unexpected argument '" + flag + "'");
+    if (i + 1 >= args.size()) throw UsageError(flag + ": missing value (or unknown option)");
+    const std::string& value = args[++i];
+    if (flag == "--image") {
+      a.image = value;
+    } else if (flag == "--camera-info") {
+      a.camera_info = value;
+    } else if (flag == "--out") {
+      a.out = value;
+    } else if (flag == "--board") {
+      const size_t x = value.find('x');
+      if (x == std::string::npos)
+        throw UsageError(flag + ": expected COLSxROWS, got '" + value + "'");
+      b.cols = parseIntArg(flag, value.substr(0, x));
+      b.rows = parseIntArg(flag, value.substr(x + 1));
+    } else if (flag == "--square") {
+      b.square_m = parseNumberArg(flag, value);
+    } else if (flag == "--offset-x") {
+      b.offset_x_m = parseNumberArg(flag, value);
+    } else if (flag == "--offset-y") {
+      b.offset_y_m = parseNumberArg(flag, value);
+    } else if (flag == "--max-board-rms") {
+      a.options.max_board_rms_m = parseNumberArg(flag, value);
+    } else {
+      throw UsageError("unknown option " + flag);
+    }
+  }
+  if (a.help) return a;
+  if (a.image.empty()) throw UsageError("--image FILE is required");
+  if (a.camera_info.empty()) throw UsageError("--camera-info FILE.yaml is required");
+  if (a.out.empty()) throw UsageError("--out FILE.yaml is required");
+  try {
+    b.validate();
+  } catch (const ConfigError& e) {
+    throw UsageError(e.what());
+  }
+  if (!(a.options.max_board_rms_m > 0)) throw UsageError("--max-board-rms: must be > 0 [m]");
+  return a;
+}
+
+CameraInfoRectification loadRectification(const std::string& path) {
+  const CameraInfoFile f = loadCameraInfoFile(path);
+  if (std::abs(f.projection(0, 3)) > 1e-9 || std::abs(f.projection(1, 3)) > 1e-9 ||
+      std::abs(f.projection(2, 3)) > 1e-9) {
+    throw ConfigError(path +
+                      ": projection_matrix has a non-zero fourth column (a stereo pair's "
+                      "second camera): the ground homography is for a monocular camera");
+  }
+  CameraInfoRectification c;
+  c.intrinsics = f.intrinsics;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) {
+      c.rectified.P(r, k) = f.projection(r, k);
+      c.rectified.R(r, k) = f.rectification(r, k);
+    }
+  }
+  return c;
+}
+
+}  // namespace extrinsics
+}  // namespace autocal

@@ -1,0 +1,123 @@
+// Duckietown's board-on-the-floor extrinsics (extrinsics::calibrateFromFloorBoard) on frames the
+// simulator renders, judged by the simulator's truth (support/floor_truth.h). Four mounts, each
+// with every degree of freedom a real one has.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/extrinsics/floor_board.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+#include "support/floor_truth.h"
+
+namespace {
+
+using namespace autocal;
+
+const std::string kConfigDir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
+
+sim::RobotConfig mounted(double height_m, double pitch_rad, double roll_rad, double yaw_rad,
+                         double x_m, double y_m) {
+  sim::RobotConfig robot = sim::loadRobotConfig(kConfigDir + "robot.yaml");
+  robot.camera.height_m = height_m;
+  robot.camera.pitch_rad = pitch_rad;
+  robot.camera.roll_rad = roll_rad;
+  robot.camera.yaw_rad = yaw_rad;
+  robot.camera.x_m = x_m;
+  robot.camera.y_m = y_m;
+  return robot;
+}
+
+cv::Mat renderStill(const sim::RobotConfig& robot, const sim::WorldConfig& world) {
+  sim::RenderOptions render;
+  render.supersampling = robot.camera.supersampling;
+  render.noise_sigma = robot.camera.noise_sigma;
+  const sim::Renderer renderer(robot.camera, world, render);
+  std::mt19937_64 rng(7);
+  cv::Mat image = renderer.render({world.robot_start}, rng);
+  if (const char* dir = std::getenv("AUTOCAL_DEBUG_DIR"))
+    cv::imwrite(std::string(dir) + "/floor_board.png", image);
+  return image;
+}
+
+class FloorBoardInSim : public ::testing::TestWithParam<int> {};
+
+sim::RobotConfig mountNumber(int i) {
+  switch (i) {
+    case 0:
+      return sim::loadRobotConfig(kConfigDir + "robot.yaml");
+    case 1:
+      return mounted(0.095, 0.33, 0.02, 0.03, 0.065, 0.008);
+    case 2:
+      return mounted(0.118, 0.21, -0.025, -0.04, 0.048, -0.012);
+    default: {
+      sim::RobotConfig r = mounted(0.105, 0.28, 0.015, -0.02, 0.06, 0.0);
+      r.camera.truth.fx *= 0.92;  // a wider lens
+      r.camera.truth.fy *= 0.92;
+      return r;
+    }
+  }
+}
+
+TEST_P(FloorBoardInSim, GroundProjectionWithinAMillimetresOverTheFloorItSees) {
+  const sim::RobotConfig robot = mountNumber(GetParam());
+  const sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
+  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
+  const extrinsics::FloorBoardResult r =
+      extrinsics::calibrateFromFloorBoard(renderStill(robot, world), camera, {});
+  const test::FloorError e = test::floorError(robot, camera.rectified, r.homography);
+  const extrinsics::CameraMount& m = r.mount;
+  const sim::CameraConfig& t = robot.camera;
+  std::printf(
+      "mount %d: floor %.2f mm RMS, %.2f mm worst over %d points; height %.2f mm (truth %.2f, "
+      "sigma %.2f), pitch %.3f deg (%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm "
+      "(%.2f), y %.2f mm (%.2f); board %.2f mm RMS, %.3f px\n",
+      GetParam(), 1e3 * e.rms_m, 1e3 * e.max_m, e.points, 1e3 * m.height_m, 1e3 * t.height_m,
+      1e3 * r.mount_sigma.height_m, m.pitch_rad * 180 / M_PI, t.pitch_rad * 180 / M_PI,
+      m.roll_rad * 180 / M_PI, t.roll_rad * 180 / M_PI, m.yaw_rad * 180 / M_PI,
+      t.yaw_rad * 180 / M_PI, 1e3 * m.x_m, 1e3 * t.x_m, 1e3 * m.y_m, 1e3 * t.y_m,
+      1e3 * r.board_rms_m, r.reprojection_rms_px);
+  EXPECT_GT(e.points, 100);
+  EXPECT_LE(e.rms_m, 0.005);
+  EXPECT_LE(e.max_m, 0.01);
+  const double deg = M_PI / 180;
+  EXPECT_NEAR(m.height_m, t.height_m, 0.002);
+  EXPECT_NEAR(m.pitch_rad, t.pitch_rad, 0.3 * deg);
+  EXPECT_NEAR(m.roll_rad, t.roll_rad, 0.3 * deg);
+  EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * deg);
+  EXPECT_NEAR(m.x_m, t.x_m, 0.005);
+  EXPECT_NEAR(m.y_m, t.y_m, 0.005);
+}
+
+INSTANTIATE_TEST_SUITE_P(FourMounts, FloorBoardInSim, ::testing::Values(0, 1, 2, 3));
+
+TEST(FloorBoardInSimFails, NoBoardInView) {
+  const sim::RobotConfig robot = mountNumber(0);
+  sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
+  world.floor_boards.front().pose.x_m = -1.0;  // behind the robot
+  try {
+    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), test::trueCameraInfo(robot), {});
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos) << e.what();
+  }
+}
+
+TEST(FloorBoardInSimFails, OffsetsThatPutTheCameraWhereNoDuckiebotHasIt) {
+  const sim::RobotConfig robot = mountNumber(0);
+  const sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
+  extrinsics::FloorBoardOptions o;
+  o.board.offset_x_m = 0.55;  // the board said to lie 0.36 m further out than it does
+  try {
+    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), test::trueCameraInfo(robot), o);
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("no Duckiebot can have"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace

@@ -1,0 +1,65 @@
+// The ground homography of a camera mount and back (extrinsics::homographyFromMount,
+// mountFromHomography), and dt-core's pixel2ground / ground2pixel.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "autocal/errors.h"
+#include "autocal/extrinsics/ground_projection.h"
+
+namespace {
+
+using namespace autocal::extrinsics;
+
+RectifiedCamera someCamera() {
+  RectifiedCamera c;
+  c.P << 280.5, 0, 318.2, 0, 283.1, 241.7, 0, 0, 1;
+  return c;
+}
+
+TEST(GroundProjection, MountToHomographyAndBack) {
+  const RectifiedCamera cam = someCamera();
+  for (const CameraMount& m : {CameraMount{0.105, 0.26, 0.0, 0.0, 0.055, 0.0},
+                               CameraMount{0.09, 0.4, 0.03, -0.05, 0.07, 0.012},
+                               CameraMount{0.13, 0.15, -0.02, 0.08, -0.02, -0.03}}) {
+    const Eigen::Matrix3d H = homographyFromMount(m, cam);
+    EXPECT_NEAR(H(2, 2), 1.0, 1e-12);
+    const CameraMount back = mountFromHomography(3.7 * H, cam);  // any scale
+    EXPECT_NEAR(back.height_m, m.height_m, 1e-9);
+    EXPECT_NEAR(back.pitch_rad, m.pitch_rad, 1e-9);
+    EXPECT_NEAR(back.roll_rad, m.roll_rad, 1e-9);
+    EXPECT_NEAR(back.yaw_rad, m.yaw_rad, 1e-9);
+    EXPECT_NEAR(back.x_m, m.x_m, 1e-9);
+    EXPECT_NEAR(back.y_m, m.y_m, 1e-9);
+    const CameraMount flipped = mountFromHomography(-H, cam);  // the sign of a scale too
+    EXPECT_NEAR(flipped.height_m, m.height_m, 1e-9);
+  }
+}
+
+TEST(GroundProjection, ALevelCameraSeesTheFloorAheadBelowTheImageCentre) {
+  // Pitched down by 0.3 rad at 0.1 m: the optical axis meets the floor 0.1/tan(0.3) ahead of the
+  // camera, at the principal point.
+  const RectifiedCamera cam = someCamera();
+  const CameraMount m{0.1, 0.3, 0.0, 0.0, 0.05, 0.0};
+  const Eigen::Matrix3d H = homographyFromMount(m, cam);
+  const Eigen::Vector2d g = pixelToGround(H, {cam.P(0, 2), cam.P(1, 2)});
+  EXPECT_NEAR(g.x(), 0.05 + 0.1 / std::tan(0.3), 1e-9);
+  EXPECT_NEAR(g.y(), 0.0, 1e-9);
+  // Left of the centre line is left in the image (smaller u).
+  EXPECT_LT(groundToPixel(H, {0.4, 0.05}).x(), cam.P(0, 2));
+  const Eigen::Vector2d p = groundToPixel(H, {0.3, -0.07});
+  EXPECT_NEAR((pixelToGround(H, p) - Eigen::Vector2d(0.3, -0.07)).norm(), 0.0, 1e-12);
+  // Yawed left, the floor straight ahead appears right of the centre.
+  const Eigen::Matrix3d yawed = homographyFromMount({0.1, 0.3, 0.0, 0.1, 0.05, 0.0}, cam);
+  EXPECT_GT(groundToPixel(yawed, {0.4, 0.0}).x(), cam.P(0, 2));
+}
+
+TEST(GroundProjection, SingularInputIsAClearError) {
+  EXPECT_THROW(mountFromHomography(Eigen::Matrix3d::Zero(), someCamera()),
+               autocal::CalibrationError);
+  // The floor through the optical centre.
+  EXPECT_THROW(homographyFromMount({0.0, 0.3, 0.0, 0.0, 0.05, 0.0}, someCamera()),
+               autocal::CalibrationError);
+}
+
+}  // namespace

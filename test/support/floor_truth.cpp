@@ -1,0 +1,84 @@
+#include "support/floor_truth.h"
+
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <sstream>
+
+#include "autocal/distortion_model.h"
+#include "autocal/io/format.h"
+#include "autocal/sim/scene.h"
+
+namespace autocal {
+namespace test {
+
+extrinsics::CameraInfoRectification trueCameraInfo(const sim::RobotConfig& robot) {
+  extrinsics::CameraInfoRectification c;
+  c.intrinsics = robot.camera.truth;
+  const cv::Mat K(c.intrinsics.cameraMatrix());
+  const cv::Mat D(c.intrinsics.distortion_coefficients);
+  const cv::Mat P = cv::getOptimalNewCameraMatrix(K, D, c.intrinsics.imageSize(), 0.0);
+  cv::cv2eigen(P, c.rectified.P);
+  return c;
+}
+
+std::string cameraInfoYaml(const extrinsics::CameraInfoRectification& camera) {
+  const CameraIntrinsics& in = camera.intrinsics;
+  auto matrix = [](int rows, int cols, const std::vector<double>& data) {
+    std::string s =
+        "\n  rows: " + std::to_string(rows) + "\n  cols: " + std::to_string(cols) + "\n  data: [";
+    for (size_t i = 0; i < data.size(); ++i) s += (i ? ", " : "") + formatNumber(data[i]);
+    return s + "]\n";
+  };
+  const Eigen::Matrix3d& P = camera.rectified.P;
+  const Eigen::Matrix3d& R = camera.rectified.R;
+  std::ostringstream y;
+  y << "image_width: " << in.width << "\nimage_height: " << in.height
+    << "\ncamera_name: simulated\ncamera_matrix:"
+    << matrix(3, 3, {in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1})
+    << "distortion_model: " << distortionModelName(in.distortion_model)
+    << "\ndistortion_coefficients:"
+    << matrix(1, static_cast<int>(in.distortion_coefficients.size()), in.distortion_coefficients)
+    << "rectification_matrix:"
+    << matrix(3, 3,
+              {R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2)})
+    << "projection_matrix:"
+    << matrix(3, 4,
+              {P(0, 0), P(0, 1), P(0, 2), 0, P(1, 0), P(1, 1), P(1, 2), 0, P(2, 0), P(2, 1),
+               P(2, 2), 0});
+  return y.str();
+}
+
+bool trueFloorPixel(const sim::RobotConfig& robot, const extrinsics::RectifiedCamera& camera,
+                    const Eigen::Vector2d& ground_m, Eigen::Vector2d* pixel) {
+  const Eigen::Matrix3d to_robot = sim::cameraToRobotRotation(robot.camera);
+  const Eigen::Vector3d t(robot.camera.x_m, robot.camera.y_m, robot.camera.height_m);
+  const Eigen::Vector3d on_floor(ground_m.x(), ground_m.y(), 0.0);
+  const Eigen::Vector3d p = camera.P * camera.R * to_robot.transpose() * (on_floor - t);
+  if (p.z() <= 0) return false;
+  *pixel = p.hnormalized();
+  return pixel->x() >= 0 && pixel->y() >= 0 && pixel->x() < robot.camera.truth.width &&
+         pixel->y() < robot.camera.truth.height;
+}
+
+FloorError floorError(const sim::RobotConfig& robot, const extrinsics::RectifiedCamera& camera,
+                      const Eigen::Matrix3d& H) {
+  FloorError e;
+  double sum = 0;
+  for (int i = 0; i <= 25; ++i) {
+    for (int j = -20; j <= 20; ++j) {
+      const Eigen::Vector2d g(0.1 + 0.02 * i, 0.02 * j);
+      Eigen::Vector2d px;
+      if (!trueFloorPixel(robot, camera, g, &px)) continue;
+      const double d = (extrinsics::pixelToGround(H, px) - g).norm();
+      sum += d * d;
+      e.max_m = std::max(e.max_m, d);
+      ++e.points;
+    }
+  }
+  e.rms_m = std::sqrt(sum / std::max(1, e.points));
+  return e;
+}
+
+}  // namespace test
+}  // namespace autocal

@@ -30,6 +30,7 @@
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
+#include "autocal/io/format.h"
 #include "autocal/io/image_file.h"
 #include "autocal_ros/msg_conversion.h"
 
@@ -48,7 +49,7 @@ const char* kUsage =
 
 struct Args {
   std::string images, bag, topic, out, config, model, camera_name = "camera", board;
-  double square_m = 0;
+  double square_m = 0;  ///< 0: the config's
   double min_novelty = -1;
   bool holdout = false;
   bool novel_only = false;  ///< calibrate on the novel views only (not every sharp one)
@@ -88,11 +89,14 @@ Args parseArgs(int argc, char** argv) {
       a.camera_name = v;
     else if (k == "--board")
       a.board = v;
-    else if (k == "--square" || k == "--min-novelty") {
-      char* end = nullptr;
-      const double x = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end) throw UsageError(k + ": '" + v + "' is not a number");
-      (k == "--square" ? a.square_m : a.min_novelty) = x;
+    else if (k == "--square") {
+      a.square_m = parseNumberArg(k, v);
+      if (!(a.square_m > 0 && a.square_m < 0.5)) {
+        throw UsageError(k + ": the side of a square in metres, within (0, 0.5), got " + v +
+                         (a.square_m >= 1 ? " (millimetres? 25 mm is 0.025)" : ""));
+      }
+    } else if (k == "--min-novelty") {
+      a.min_novelty = parseNumberArg(k, v);
     } else {
       throw UsageError("unknown option " + k);
     }
@@ -192,7 +196,7 @@ int run(const Args& args) {
   CameraCalibrationConfig config =
       loadCameraCalibrationConfig(args.config.empty() ? defaultConfigPath() : args.config);
   if (!args.board.empty()) config.board.inner_corners = parseBoardSize(args.board);
-  if (args.square_m != 0) config.board.square_size_m = args.square_m;
+  if (args.square_m > 0) config.board.square_size_m = args.square_m;
   const BoardSpec& board = config.board;
   if (!args.model.empty()) config.calibration.model = parseDistortionModel(args.model);
   if (args.min_novelty >= 0) config.selection.min_novelty = args.min_novelty;

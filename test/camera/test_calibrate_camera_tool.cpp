@@ -291,5 +291,13 @@ TEST_F(ToolTest, BadInputIsRefusedAndNeverOverwritesAGoodFile) {
 
   const ToolRun usage = runTool("--images x.jpg");
   EXPECT_EQ(usage.exit_code, 64);
+  // A square of 0, or one in millimetres, is no square in metres.
+  for (const char* square : {"0", "25"}) {
+    const ToolRun bad =
+        runTool("--images x.jpg --square " + std::string(square) + " --out " + path("good.yaml"));
+    EXPECT_EQ(bad.exit_code, 64) << square;
+    EXPECT_NE(bad.output.find("--square: the side of a square in metres"), std::string::npos)
+        << bad.output;
+  }
   EXPECT_EQ(autocal::readFile(path("good.yaml")), "previous good calibration\n");
 }

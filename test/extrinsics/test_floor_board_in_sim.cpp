@@ -95,6 +95,61 @@ TEST_P(FloorBoardInSim, GroundProjectionWithinAMillimetresOverTheFloorItSees) {
 
 INSTANTIATE_TEST_SUITE_P(FourMounts, FloorBoardInSim, ::testing::Values(0, 1, 2, 3));
 
+/// Where a lane line's edge crosses an image row of the rectified image: the sub-pixel column where
+/// `channel` passes `level` going right from `from_u` (rising or falling as asked); NaN if never.
+double edgeInRow(const cv::Mat& bgr, int v, int channel, double level, int from_u, bool rising) {
+  for (int u = std::max(1, from_u); u < bgr.cols; ++u) {
+    const double a = bgr.at<cv::Vec3b>(v, u - 1)[channel], b = bgr.at<cv::Vec3b>(v, u)[channel];
+    if (rising ? (a < level && b >= level) : (a >= level && b < level))
+      return u - 1 + (level - a) / (b - a);  // pixel centres at integers
+  }
+  return std::nan("");
+}
+
+// As Duckietown uses the file: a frame rectified with P, its lane lines' edges found in it and
+// projected with the homography land where the world YAML puts them (the white line's inner edge
+// at y = -0.115 m, the yellow line's at +0.115 m), from 0.4 m to 0.8 m ahead.
+TEST(FloorBoardInSim, LaneLinesLandWhereTheWorldPutsThem) {
+  const sim::RobotConfig robot = mountNumber(1);
+  const sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
+  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
+  const cv::Mat raw = renderStill(robot, world);
+  const extrinsics::FloorBoardResult r = extrinsics::calibrateFromFloorBoard(raw, camera, {});
+  const cv::Mat rectified = extrinsics::rectifyImage(raw, camera);
+  const double white_inner = world.lane_lines[0].y0_m + 0.5 * world.lane_lines[0].width_m;
+  const double yellow_inner = world.lane_lines[1].y0_m - 0.5 * world.lane_lines[1].width_m;
+  int white = 0, yellow = 0;
+  double worst = 0;
+  for (int v = 0; v < rectified.rows; v += 2) {
+    const Eigen::Vector2d centre =
+        extrinsics::pixelToGround(r.homography, {0.5 * rectified.cols, static_cast<double>(v)});
+    if (!(centre.x() > 0.42 && centre.x() < 0.8)) continue;
+    // The white line right of the image's centre: its inner (left) edge rises in blue.
+    const double uw = edgeInRow(rectified, v, 0, 160, rectified.cols / 2, true);
+    if (std::isfinite(uw)) {
+      const Eigen::Vector2d g = extrinsics::pixelToGround(r.homography, {uw, double(v)});
+      worst = std::max(worst, std::abs(g.y() - white_inner));
+      EXPECT_NEAR(g.y(), white_inner, 0.01) << "white line at x " << g.x();
+      ++white;
+    }
+    // The yellow line left of the centre: going left to right, its inner (right) edge is where red
+    // falls back to the floor's.
+    const double uy = edgeInRow(rectified, v, 2, 160, 0, false);
+    if (std::isfinite(uy) && uy < 0.5 * rectified.cols) {
+      const Eigen::Vector2d g = extrinsics::pixelToGround(r.homography, {uy, double(v)});
+      if (g.y() > 0.05) {
+        worst = std::max(worst, std::abs(g.y() - yellow_inner));
+        EXPECT_NEAR(g.y(), yellow_inner, 0.01) << "yellow line at x " << g.x();
+        ++yellow;
+      }
+    }
+  }
+  std::printf("lane edges: %d white, %d yellow rows, worst %.2f mm off\n", white, yellow,
+              1e3 * worst);
+  EXPECT_GT(white, 10);
+  EXPECT_GT(yellow, 5);
+}
+
 TEST(FloorBoardInSimFails, NoBoardInView) {
   const sim::RobotConfig robot = mountNumber(0);
   sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");

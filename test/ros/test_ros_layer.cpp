@@ -85,6 +85,24 @@ TEST(NodeRuntime, StatusIsLatchedAndFailedCarriesTheReason) {
   EXPECT_EQ(got.back().failure_reason, "no board seen in a full turn");
 }
 
+TEST(NodeRuntime, AStagesProgressNeverGoesBack) {
+  ros::NodeHandle nh("progress_test");
+  StatusPublisher status(nh, "calibration/status");
+  std::vector<CalibrationStatus> got;
+  ros::Subscriber sub = nh.subscribe<CalibrationStatus>(
+      "calibration/status", 10, [&](const CalibrationStatus::ConstPtr& m) { got.push_back(*m); });
+  ASSERT_TRUE(spinUntil([&] { return status.subscribers() > 0; }, 10.0));
+  status.running("wheels/iterate", 0.45, "iteration 5");
+  status.running("wheels/align", 0.1, "re-aligning");
+  status.running("wheels/align", -1, "unknown");
+  status.running("wheels/iterate", 0.5, "iteration 6");
+  ASSERT_TRUE(spinUntil([&] { return got.size() >= 4; }, 10.0));
+  EXPECT_FLOAT_EQ(got[0].progress, 0.45f);
+  EXPECT_FLOAT_EQ(got[1].progress, 0.45f);
+  EXPECT_LT(got[2].progress, 0.0f);
+  EXPECT_FLOAT_EQ(got[3].progress, 0.5f);
+}
+
 TEST(NodeRuntime, ResumeKeepsAStageTheLastReportSaysSucceeded) {
   namespace fs = std::filesystem;
   const fs::path root = fs::temp_directory_path() / "autocal_test_resume";

@@ -39,23 +39,29 @@ void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // Steady rate of each wheel: least squares of ticks against time after the motors' lag.
   const double t0 = drive.start_s + options_.motor_settle_s, t1 = drive.end_s;
   if (t1 - t0 < options_.min_fit_window_s) return;  // a short drive's rate is too coarse
-  double n = 0, st = 0, stt = 0, sl = 0, sr = 0, stl = 0, str = 0;
-  for (const auto& s : drive.samples) {
-    if (s[0] < t0 || s[0] > t1) continue;
-    n += 1, st += s[0], stt += s[0] * s[0], sl += s[1], sr += s[2], stl += s[0] * s[1],
-        str += s[0] * s[2];
-  }
-  if (n < 5) return;
-  const double den = n * stt - st * st;
-  if (den <= 0) return;
-  const double k = 2 * M_PI / ticks_per_revolution;
+  // Each wheel's rate from its own readings: a sample whose count of that wheel changed from the
+  // sample before came from that wheel's message, at its stamp. The other wheel's count in it is
+  // the last one that arrived, up to an encoder period older than the stamp, and how the two
+  // wheels' messages interleave differs between a live run and its replay.
+  const auto rate = [&](int wheel, double* out) {
+    double n = 0, st = 0, stt = 0, sx = 0, stx = 0;
+    for (size_t i = 1; i < drive.samples.size(); ++i) {
+      const auto& s = drive.samples[i];
+      if (s[0] < t0 || s[0] > t1 || s[wheel] == drive.samples[i - 1][wheel]) continue;
+      n += 1, st += s[0], stt += s[0] * s[0], sx += s[wheel], stx += s[0] * s[wheel];
+    }
+    const double den = n * stt - st * st;
+    if (n < 5 || den <= 0) return false;
+    *out = std::abs(2 * M_PI / ticks_per_revolution * (n * stx - st * sx) / den);
+    return true;
+  };
+  double rate_left = 0, rate_right = 0;
+  if (!rate(1, &rate_left) || !rate(2, &rate_right)) return;
   // A rate's variance from a window of length T falls as 1/T^3 (quantised ticks, uniform
   // samples): the short first drives weigh little next to the long ones.
   const double weight = std::pow(t1 - t0, 3);
-  points_left_.push_back(
-      {std::abs(drive.duties.left), std::abs(k * (n * stl - st * sl) / den), weight});
-  points_right_.push_back(
-      {std::abs(drive.duties.right), std::abs(k * (n * str - st * sr) / den), weight});
+  points_left_.push_back({std::abs(drive.duties.left), rate_left, weight});
+  points_right_.push_back({std::abs(drive.duties.right), rate_right, weight});
   // Beyond the paper: a drive whose rate lies off the line of the others by more than
   // max_fit_residual (a bump, a slipping wheel, a command that came late) is dropped from both
   // wheels' fits, the worst first, while at least four drives remain.

@@ -46,6 +46,10 @@ void CameraCalibrationNodeOptions::validate() const {
 
 namespace {
 
+/// Messages of each input that wait while the passive node is busy: rosbag play feeds a recording
+/// faster than real time, and a lost encoder reading or frame changes what the replay computes.
+constexpr uint32_t kReplayQueue = 2000;
+
 CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "camera_calibration_node");
   CameraCalibrationNodeOptions o;
@@ -164,7 +168,7 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
         run_->addFrame(stamp.toSec(), image, source);
         publishDebug(image);
       },
-      &error_, options_.passive ? 30 : 2);
+      &error_, options_.passive ? kReplayQueue : 2);
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
@@ -174,7 +178,7 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
         if (run_)
           run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
       },
-      &error_);
+      &error_, ros_layer::EncoderInput::WheelHandler(), options_.passive ? kReplayQueue : 50);
   if (options_.passive) {
     // The recording's commands and statuses; the stage is built when camera_info is known, and
     // nothing of the recording comes before rosbag play starts (replay.launch delays it).

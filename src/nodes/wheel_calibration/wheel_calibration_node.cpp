@@ -255,6 +255,12 @@ void WheelCalibrationNode::onStageStatus(const autocal::CalibrationStatus::Const
   }
 }
 
+namespace {
+/// Messages of each input that wait while the passive node is busy: rosbag play feeds a recording
+/// faster than real time, and a lost encoder reading or frame changes what the replay computes.
+constexpr uint32_t kReplayQueue = 2000;
+}  // namespace
+
 void WheelCalibrationNode::runPassive() {
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
@@ -293,14 +299,14 @@ void WheelCalibrationNode::runPassive() {
       [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
         replay_->addFrame(stamp.toSec(), image);
       },
-      &error_, 30);
+      &error_, kReplayQueue);
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
         recording_->noteMessage();
         if (replay_) replay_->addEncoders(stamp.toSec(), left, right, resolution);
       },
-      &error_);
+      &error_, ros_layer::EncoderInput::WheelHandler(), kReplayQueue);
 
   auto describe = [&] {
     return replay_ ? replay_->describe() : std::string("waiting for the recorded wheel stage");

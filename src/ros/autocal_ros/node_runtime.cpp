@@ -58,6 +58,7 @@ void StatusPublisher::publish(uint8_t state, const std::string& phase, double pr
 
 void StatusPublisher::running(const std::string& phase, double progress, const std::string& text,
                               const Figures& figures) {
+  if (progress >= 0) progress = max_progress_ = std::max(progress, max_progress_);
   publish(CalibrationStatus::STATE_RUNNING, phase, progress, text, "", figures);
 }
 

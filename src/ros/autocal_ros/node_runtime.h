@@ -28,7 +28,9 @@ class StatusPublisher {
   StatusPublisher(ros::NodeHandle nh, const std::string& topic);
 
   using Figures = std::vector<std::pair<std::string, double>>;
-  /// `progress` 0..1, negative when unknown.
+  /// `progress` 0..1, negative when unknown. A stage's progress never goes back: a lower value
+  /// than one published before (a stage re-aligning, a phase whose own measure starts lower) is
+  /// published as the higher one.
   void running(const std::string& phase, double progress, const std::string& text,
                const Figures& figures = {});
   /// DONE; `file`: the file the stage wrote or kept, for the next stage and the report.
@@ -38,6 +40,8 @@ class StatusPublisher {
   void wrote(const std::string& phase, const std::string& file, const Figures& figures = {});
   void failed(const std::string& phase, const std::string& reason, const Figures& figures = {});
   const std::string& topic() const { return topic_; }
+  /// Subscribers connected to the status topic now.
+  uint32_t subscribers() const { return pub_.getNumSubscribers(); }
 
  private:
   void publish(uint8_t state, const std::string& phase, double progress, const std::string& text,
@@ -45,6 +49,7 @@ class StatusPublisher {
                const std::string& file = "");
   ros::Publisher pub_;
   std::string topic_;
+  double max_progress_ = 0.0;
 };
 
 /// Publishes wheels_cmd; stop() sends zero duties until a subscriber has seen them.

@@ -70,13 +70,13 @@ void FrameInput::handle(const ros::Time& stamp, const cv::Mat& image, const std:
 }
 
 EncoderInput::EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error,
-                           WheelHandler on_wheel)
+                           WheelHandler on_wheel, uint32_t queue_size)
     : handler_(std::move(handler)), on_wheel_(std::move(on_wheel)), error_(error) {
   left_sub_ = nh.subscribe<dtmsg::WheelEncoderStamped>(
-      "left_wheel_encoder_node/tick", 50,
+      "left_wheel_encoder_node/tick", queue_size,
       [this](const dtmsg::WheelEncoderStamped::ConstPtr& m) { on(m, true); });
   right_sub_ = nh.subscribe<dtmsg::WheelEncoderStamped>(
-      "right_wheel_encoder_node/tick", 50,
+      "right_wheel_encoder_node/tick", queue_size,
       [this](const dtmsg::WheelEncoderStamped::ConstPtr& m) { on(m, false); });
 }
 

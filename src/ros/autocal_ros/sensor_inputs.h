@@ -65,9 +65,11 @@ class EncoderInput {
   using WheelHandler = std::function<void(int side, const ros::Time& stamp, std::int32_t ticks,
                                           int ticks_per_revolution)>;
 
-  /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr).
+  /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr). `queue_size`
+  /// readings per wheel wait while the node is busy (a replay, fed faster than real time, must
+  /// lose none: a lost reading at a drive's end moves the rate the deadband fit sees).
   EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error,
-               WheelHandler on_wheel = {});
+               WheelHandler on_wheel = {}, uint32_t queue_size = 50);
   EncoderInput(const EncoderInput&) = delete;
   EncoderInput& operator=(const EncoderInput&) = delete;
   bool connected() const {

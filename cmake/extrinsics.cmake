@@ -3,6 +3,7 @@
 target_sources(autocal_core PRIVATE
   src/core/extrinsics/ground_projection.cpp
   src/core/extrinsics/floor_board.cpp
+  src/core/extrinsics/tag_mount.cpp
   src/core/extrinsics/extrinsics_file.cpp)
 
 # The offline tool: Duckietown's board-on-the-floor procedure from one image (no ROS needed).
@@ -18,6 +19,9 @@ if(CATKIN_ENABLE_TESTING)
                      LIBS autocal_core)
   # On the simulator's rendered board, judged by its true mount.
   autocal_core_gtest(test_floor_board_in_sim SOURCES test/extrinsics/test_floor_board_in_sim.cpp
+                     LIBS autocal_test_support autocal_core autocal_sim_core)
+  # The mount from the floor tags alone, on rendered stills between turns and straight drives.
+  autocal_core_gtest(test_tag_mount_in_sim SOURCES test/extrinsics/test_tag_mount_in_sim.cpp
                      LIBS autocal_test_support autocal_core autocal_sim_core)
   # The command end to end: a rendered image and a camera_info file in, the extrinsics file out.
   autocal_core_gtest(test_calibrate_extrinsics_tool

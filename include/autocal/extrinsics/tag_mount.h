@@ -1,0 +1,71 @@
+// The camera's mount on the robot from floor tags the robot sees while it stands, drives straight
+// and turns on the spot: no board, no known tag layout, no person (see ground_projection.h for the
+// mount's conventions).
+//
+// - Height, pitch and roll: the camera is rigid on a robot standing on a flat floor, so the floor
+//   is one plane in the camera's frame in every still. The corners of every tag seen (their poses
+//   from the tag size) are fitted with one plane.
+// - Yaw: levelled with that plane, the tags seen before and after a straight drive move against
+//   the robot's forward axis. A drive that turned by dθ moved along the chord, dθ/2 off the start
+//   heading.
+// - Offsets: a turn on the spot turns the levelled view about the middle of the wheel axle; the
+//   fixed point of the tags' motion is where the axle's middle is, seen from the camera.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "autocal/extrinsics/ground_projection.h"
+
+namespace autocal {
+namespace extrinsics {
+
+/// One tag seen in a still: its pose in the camera's optical frame (x = rotation·x_tag +
+/// translation_m; the tag's z axis into the floor) and its edge.
+struct TagSeen {
+  int id = -1;
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation_m = Eigen::Vector3d::Zero();
+  double size_m = 0.065;
+};
+
+/// The tags seen while the robot stood still once.
+struct TagStill {
+  std::vector<TagSeen> tags;
+};
+
+/// What the robot did between two stills.
+enum class StillMotion { kForward, kBackward, kSpin };
+
+struct StillPair {
+  int before = 0, after = 0;  ///< indices into the stills
+  StillMotion motion = StillMotion::kForward;
+};
+
+struct TagMountOptions {
+  double min_drive_m = 0.1;    ///< a straight drive shorter than this says little about the yaw
+  double min_spin_rad = 0.15;  ///< a turn smaller than this says little about the axle's place
+  int min_straight = 1;        ///< straight drives needed (with a tag seen before and after)
+  int min_spins = 2;           ///< turns on the spot needed
+
+  /// Throws ConfigError naming the bad key.
+  void validate() const;
+};
+
+struct TagMountResult {
+  CameraMount mount;
+  double plane_rms_m = 0;     ///< the tags' corners off the fitted floor plane
+  int corners = 0;            ///< in the plane fit
+  int straight = 0;           ///< straight drives used for the yaw
+  int spins = 0;              ///< turns used for the offsets
+  double yaw_spread_rad = 0;  ///< standard deviation of the drives' yaws
+  double centre_rms_m = 0;    ///< the turns' residual about the fitted axle centre
+};
+
+/// The mount from the stills and the motions between them. Throws CalibrationError naming what is
+/// missing (no tag, too few straight drives or turns with a tag seen before and after).
+TagMountResult mountFromTags(const std::vector<TagStill>& stills,
+                             const std::vector<StillPair>& pairs, const TagMountOptions& options);
+
+}  // namespace extrinsics
+}  // namespace autocal

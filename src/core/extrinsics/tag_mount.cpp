@@ -1,0 +1,184 @@
+// The camera's mount from floor tags seen in stills between straight drives and turns on the spot
+// (see tag_mount.h).
+#include "autocal/extrinsics/tag_mount.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+
+namespace autocal {
+namespace extrinsics {
+
+namespace {
+
+double wrap(double a) { return std::remainder(a, 2 * M_PI); }
+
+Eigen::Matrix2d rot(double a) {
+  Eigen::Matrix2d r;
+  r << std::cos(a), -std::sin(a), std::sin(a), std::cos(a);
+  return r;
+}
+
+/// A tag in the levelled camera frame: where it lies on the floor and where its x axis points.
+struct LevelTag {
+  Eigen::Vector2d at;
+  double angle = 0;
+};
+
+/// How the levelled view moved between two stills: a point at g_after is at R(turn)·g_after +
+/// shift before (the robot turned by `turn`, the camera moved by `shift`).
+struct ViewMotion {
+  int tags = 0;
+  double turn = 0;
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+};
+
+ViewMotion viewMotion(const std::map<int, LevelTag>& before, const std::map<int, LevelTag>& after) {
+  ViewMotion m;
+  double s = 0, c = 0;
+  for (const auto& [id, b] : before) {
+    const auto a = after.find(id);
+    if (a == after.end()) continue;
+    s += std::sin(b.angle - a->second.angle);
+    c += std::cos(b.angle - a->second.angle);
+    ++m.tags;
+  }
+  if (m.tags == 0) return m;
+  m.turn = std::atan2(s, c);
+  for (const auto& [id, b] : before) {
+    const auto a = after.find(id);
+    if (a != after.end()) m.shift += (b.at - rot(m.turn) * a->second.at) / m.tags;
+  }
+  return m;
+}
+
+}  // namespace
+
+void TagMountOptions::validate() const {
+  if (!(min_drive_m > 0)) throw ConfigError("min_drive_m: must be > 0 [m]");
+  if (!(min_spin_rad > 0 && min_spin_rad < M_PI))
+    throw ConfigError("min_spin_rad: must be within (0, pi) [rad]");
+  if (min_straight < 1) throw ConfigError("min_straight: must be >= 1");
+  if (min_spins < 1) throw ConfigError("min_spins: must be >= 1");
+}
+
+TagMountResult mountFromTags(const std::vector<TagStill>& stills,
+                             const std::vector<StillPair>& pairs, const TagMountOptions& options) {
+  options.validate();
+  TagMountResult out;
+  // The floor: one plane through every tag corner of every still.
+  std::vector<Eigen::Vector3d> corners;
+  for (const TagStill& still : stills) {
+    for (const TagSeen& t : still.tags) {
+      const double h = 0.5 * t.size_m;
+      for (const Eigen::Vector2d& c : {Eigen::Vector2d(-h, -h), Eigen::Vector2d(h, -h),
+                                       Eigen::Vector2d(h, h), Eigen::Vector2d(-h, h)}) {
+        corners.push_back(t.rotation * Eigen::Vector3d(c.x(), c.y(), 0) + t.translation_m);
+      }
+    }
+  }
+  if (corners.size() < 12) {
+    throw CalibrationError(
+        "the camera mount needs floor tags in view: " + std::to_string(corners.size() / 4) +
+        " tag sightings in " + std::to_string(stills.size()) + " stills");
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : corners) centroid += p / static_cast<double>(corners.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const auto& p : corners) scatter += (p - centroid) * (p - centroid).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
+  Eigen::Vector3d up = eig.eigenvectors().col(0);  // the smallest spread: the plane's normal
+  if (up.dot(centroid) > 0) up = -up;              // towards the camera, which is above the floor
+  CameraMount& m = out.mount;
+  m.height_m = -up.dot(centroid);
+  double sq = 0;
+  for (const auto& p : corners) sq += std::pow(up.dot(p) + m.height_m, 2);
+  out.corners = static_cast<int>(corners.size());
+  out.plane_rms_m = std::sqrt(sq / static_cast<double>(corners.size()));
+  // up = (−cos p·sin r, −cos p·cos r, −sin p) in the camera (ground_projection.h's rotation).
+  m.pitch_rad = std::asin(std::clamp(-up.z(), -1.0, 1.0));
+  m.roll_rad = std::atan2(-up.x(), -up.y());
+  CameraMount level_mount = m;
+  level_mount.yaw_rad = 0;
+  const Eigen::Matrix3d level = cameraToRobot(level_mount);  // the robot's frame turned by −yaw
+
+  std::vector<std::map<int, LevelTag>> views(stills.size());
+  for (size_t i = 0; i < stills.size(); ++i) {
+    for (const TagSeen& t : stills[i].tags) {
+      const Eigen::Vector3d at = level * t.translation_m;
+      const Eigen::Vector3d x = level * t.rotation.col(0);
+      views[i][t.id] = {at.head<2>(), std::atan2(x.y(), x.x())};
+    }
+  }
+
+  // Sort the motions: turns on the spot and straight drives with a tag seen before and after.
+  std::vector<ViewMotion> spins;
+  std::vector<std::pair<ViewMotion, bool>> drives;  // and whether it went forward
+  for (const StillPair& p : pairs) {
+    if (p.before < 0 || p.after < 0 || p.before >= static_cast<int>(stills.size()) ||
+        p.after >= static_cast<int>(stills.size()))
+      throw InputError("a still pair names a still that is not there");
+    const ViewMotion v =
+        viewMotion(views[static_cast<size_t>(p.before)], views[static_cast<size_t>(p.after)]);
+    if (v.tags == 0) continue;
+    if (p.motion == StillMotion::kSpin) {
+      if (std::abs(v.turn) >= options.min_spin_rad) spins.push_back(v);
+    } else if (v.shift.norm() >= options.min_drive_m) {
+      drives.push_back({v, p.motion == StillMotion::kForward});
+    }
+  }
+  out.straight = static_cast<int>(drives.size());
+  out.spins = static_cast<int>(spins.size());
+  if (out.spins < options.min_spins) {
+    throw CalibrationError(
+        "the camera's place on the robot needs " + std::to_string(options.min_spins) +
+        " turns on the spot of " + formatNumber(options.min_spin_rad, 3) +
+        " rad or more with a tag seen before and after, got " + std::to_string(out.spins));
+  }
+  if (out.straight < options.min_straight) {
+    throw CalibrationError("the camera's yaw needs " + std::to_string(options.min_straight) +
+                           " straight drive(s) of " + formatNumber(options.min_drive_m, 3) +
+                           " m or more with a tag seen before and after, got " +
+                           std::to_string(out.straight));
+  }
+
+  // The axle's middle a in the levelled view is the turns' fixed point: a = R(turn)·a + shift.
+  Eigen::MatrixXd A(2 * static_cast<Eigen::Index>(spins.size()), 2);
+  Eigen::VectorXd b(2 * static_cast<Eigen::Index>(spins.size()));
+  for (size_t i = 0; i < spins.size(); ++i) {
+    A.block<2, 2>(2 * static_cast<Eigen::Index>(i), 0) =
+        Eigen::Matrix2d::Identity() - rot(spins[i].turn);
+    b.segment<2>(2 * static_cast<Eigen::Index>(i)) = spins[i].shift;
+  }
+  const Eigen::Vector2d axle = A.colPivHouseholderQr().solve(b);
+  out.centre_rms_m = std::sqrt((A * axle - b).squaredNorm() / static_cast<double>(spins.size()));
+
+  // Yaw: the robot's forward axis is at −yaw in the levelled view. A drive moved the axle's middle
+  // (from a to R(turn)·a + shift) along its chord, turn/2 off the start heading; the camera, ahead
+  // of the axle, moved by more to the side when the drive turned.
+  double ys = 0, yc = 0;
+  std::vector<double> yaws;
+  for (const auto& [v, forward] : drives) {
+    const Eigen::Vector2d moved = rot(v.turn) * axle + v.shift - axle;
+    const double heading = std::atan2(moved.y(), moved.x()) + (forward ? 0.0 : M_PI);
+    const double yaw = wrap(0.5 * v.turn - heading);
+    yaws.push_back(yaw);
+    ys += moved.norm() * std::sin(yaw), yc += moved.norm() * std::cos(yaw);
+  }
+  m.yaw_rad = std::atan2(ys, yc);
+  double spread = 0;
+  for (double y : yaws) spread += std::pow(wrap(y - m.yaw_rad), 2);
+  out.yaw_spread_rad = std::sqrt(spread / static_cast<double>(yaws.size()));
+  // The camera seen from the axle's middle, in the robot's frame.
+  const Eigen::Vector2d camera = rot(m.yaw_rad) * (-axle);
+  m.x_m = camera.x();
+  m.y_m = camera.y();
+  return out;
+}
+
+}  // namespace extrinsics
+}  // namespace autocal

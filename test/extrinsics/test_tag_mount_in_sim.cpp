@@ -1,0 +1,151 @@
+// The camera's mount from the floor tags alone (extrinsics::mountFromTags) on the simulator: the
+// robot stands on the tag strip of world.yaml, turns on the spot and drives straight forward and
+// back; each still's tags are detected on the rendered frame with the tag size. The mount is
+// judged by the simulator's truth (support/floor_truth.h): four mounts, each with every degree of
+// freedom a real one has.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "autocal/errors.h"
+#include "autocal/extrinsics/tag_mount.h"
+#include "autocal/markers/tag_detector.h"
+#include "autocal/sim/config.h"
+#include "autocal/sim/renderer.h"
+#include "autocal/sim/simulation.h"
+#include "support/floor_truth.h"
+
+namespace {
+
+using namespace autocal;
+
+const std::string kConfigDir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
+
+sim::RobotConfig mountNumber(int i) {
+  sim::RobotConfig r = sim::loadRobotConfig(kConfigDir + "robot.yaml");
+  sim::CameraConfig& c = r.camera;
+  switch (i) {
+    case 0:
+      break;
+    case 1:
+      c.height_m = 0.095, c.pitch_rad = 0.33, c.roll_rad = 0.02, c.yaw_rad = 0.03, c.x_m = 0.065,
+      c.y_m = 0.008;
+      break;
+    case 2:
+      c.height_m = 0.118, c.pitch_rad = 0.21, c.roll_rad = -0.025, c.yaw_rad = -0.04, c.x_m = 0.048,
+      c.y_m = -0.012;
+      break;
+    default:
+      c.height_m = 0.105, c.pitch_rad = 0.28, c.roll_rad = 0.015, c.yaw_rad = -0.02, c.x_m = 0.06;
+      c.truth.fx *= 0.92;
+      c.truth.fy *= 0.92;
+  }
+  return r;
+}
+
+/// The robot's stills and motions, as the stage would make them.
+struct Recorded {
+  std::vector<extrinsics::TagStill> stills;
+  std::vector<extrinsics::StillPair> pairs;
+};
+
+Recorded record(const sim::RobotConfig& robot) {
+  sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world.yaml");
+  world.robot_start = {0.0, 0.0, M_PI};  // facing the tag strip
+  sim::Simulation simulation(robot, world, sim::SimulationOptions());
+  sim::RenderOptions render;
+  render.supersampling = robot.camera.supersampling;
+  render.noise_sigma = robot.camera.noise_sigma;
+  const sim::Renderer renderer(robot.camera, world, render);
+  markers::TagDetectorOptions detector_options;
+  detector_options.tag_size_m = 0.065;
+  markers::TagDetector detector(detector_options, robot.camera.truth);
+  // The floor's normal as the nominal mount has it (it picks the tags' pose among IPPE's two).
+  const double pitch = 0.26;
+  detector.setFloorNormal({0.0, -std::cos(pitch), -std::sin(pitch)});
+  std::mt19937_64 rng(11);
+  Recorded out;
+  auto still = [&] {
+    simulation.setDuty(0, 0);
+    simulation.advance(1.0);
+    extrinsics::TagStill s;
+    for (const markers::TagDetection& d :
+         detector.detect(renderer.render({simulation.pose()}, rng))) {
+      extrinsics::TagSeen t;
+      t.id = d.id;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) t.rotation(r, c) = d.rotation(r, c);
+        t.translation_m[r] = d.translation_m[r];
+      }
+      t.size_m = detector_options.tag_size_m;
+      s.tags.push_back(t);
+    }
+    out.stills.push_back(s);
+  };
+  auto move = [&](double left, double right, double seconds, extrinsics::StillMotion motion) {
+    simulation.setDuty(left, right);
+    simulation.advance(seconds);
+    still();
+    out.pairs.push_back(
+        {static_cast<int>(out.stills.size()) - 2, static_cast<int>(out.stills.size()) - 1, motion});
+  };
+  using M = extrinsics::StillMotion;
+  still();
+  move(-0.16, 0.16, 0.3, M::kSpin);
+  move(0.16, -0.16, 0.6, M::kSpin);
+  move(-0.16, 0.16, 0.3, M::kSpin);
+  move(0.3, 0.3, 1.0, M::kForward);
+  move(-0.3, -0.3, 1.0, M::kBackward);
+  move(0.16, -0.16, 0.3, M::kSpin);
+  move(-0.16, 0.16, 0.3, M::kSpin);
+  return out;
+}
+
+class TagMountInSim : public ::testing::TestWithParam<int> {};
+
+TEST_P(TagMountInSim, MountFromTagsWithinTheTargets) {
+  const sim::RobotConfig robot = mountNumber(GetParam());
+  const Recorded rec = record(robot);
+  const extrinsics::TagMountResult r = extrinsics::mountFromTags(rec.stills, rec.pairs, {});
+  const extrinsics::CameraMount& m = r.mount;
+  const sim::CameraConfig& t = robot.camera;
+  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
+  const test::FloorError e = test::floorError(robot, camera.rectified,
+                                              extrinsics::homographyFromMount(m, camera.rectified));
+  std::printf(
+      "mount %d: floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
+      "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm (%.2f); "
+      "plane %.2f mm RMS over %d corners, %d drives (yaw spread %.3f deg), %d turns (centre %.2f "
+      "mm)\n",
+      GetParam(), 1e3 * e.rms_m, 1e3 * e.max_m, 1e3 * m.height_m, 1e3 * t.height_m,
+      m.pitch_rad * 180 / M_PI, t.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
+      t.roll_rad * 180 / M_PI, m.yaw_rad * 180 / M_PI, t.yaw_rad * 180 / M_PI, 1e3 * m.x_m,
+      1e3 * t.x_m, 1e3 * m.y_m, 1e3 * t.y_m, 1e3 * r.plane_rms_m, r.corners, r.straight,
+      r.yaw_spread_rad * 180 / M_PI, r.spins, 1e3 * r.centre_rms_m);
+  EXPECT_LE(e.rms_m, 0.01);
+  EXPECT_LE(e.max_m, 0.02);
+  const double deg = M_PI / 180;
+  EXPECT_NEAR(m.height_m, t.height_m, 0.002);
+  EXPECT_NEAR(m.pitch_rad, t.pitch_rad, 0.3 * deg);
+  EXPECT_NEAR(m.roll_rad, t.roll_rad, 0.3 * deg);
+  EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * deg);
+}
+
+INSTANTIATE_TEST_SUITE_P(FourMounts, TagMountInSim, ::testing::Values(0, 1, 2, 3));
+
+TEST(TagMount, WithoutTurnsOrDrivesItSaysWhatIsMissing) {
+  const Recorded rec = record(mountNumber(0));
+  std::vector<extrinsics::StillPair> drives_only;
+  for (const auto& p : rec.pairs)
+    if (p.motion != extrinsics::StillMotion::kSpin) drives_only.push_back(p);
+  try {
+    extrinsics::mountFromTags(rec.stills, drives_only, {});
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("turns on the spot"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(extrinsics::mountFromTags({}, {}, {}), CalibrationError);
+}
+
+}  // namespace

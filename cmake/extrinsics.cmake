@@ -14,7 +14,6 @@ set_target_properties(calibrate_extrinsics PROPERTIES
   RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
 
 if(CATKIN_ENABLE_TESTING)
-  target_sources(autocal_test_support PRIVATE test/support/floor_truth.cpp)
   autocal_core_gtest(test_ground_projection SOURCES test/extrinsics/test_ground_projection.cpp
                      LIBS autocal_core)
   # On the simulator's rendered board, judged by its true mount.

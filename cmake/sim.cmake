@@ -5,7 +5,8 @@ target_sources(autocal_sim_core PRIVATE
   sim/src/scene.cpp
   sim/src/renderer.cpp
   sim/src/simulation.cpp
-  sim/src/transport.cpp)
+  sim/src/transport.cpp
+  sim/src/floor_truth.cpp)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sim_physics SOURCES test/sim/test_physics.cpp LIBS autocal_sim_core)
@@ -52,6 +53,10 @@ add_executable(compare_camera src/nodes/sim_tools/compare_camera_main.cpp)
 target_link_libraries(compare_camera autocal_sim_core autocal_ros)
 target_compile_options(compare_camera PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(compare_camera)
+add_executable(compare_extrinsics src/nodes/sim_tools/compare_extrinsics_main.cpp)
+target_link_libraries(compare_extrinsics autocal_sim_core autocal_core)
+target_compile_options(compare_extrinsics PRIVATE ${AUTOCAL_WARNINGS})
+set_target_properties(compare_extrinsics PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
 add_executable(compare_wheels src/nodes/sim_tools/compare_wheels_main.cpp)
 target_link_libraries(compare_wheels autocal_sim_core autocal_core)
 target_compile_options(compare_wheels PRIVATE ${AUTOCAL_WARNINGS})

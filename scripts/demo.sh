@@ -37,6 +37,16 @@ echo
 echo "The wheels calibrated by the robot itself (before: no kinematics file, Duckietown's defaults),"
 echo "against what the simulated robot's true wheels need:"
 rosrun autocal compare_wheels --robot-config "$robot" --calibration "$kinematics"
+extrinsics=$cal/camera_extrinsic/$veh.yaml
+if test -s "$extrinsics"; then
+  echo
+  echo "The camera's ground projection (extrinsics) found by the robot itself from the floor tags,"
+  echo "against the simulator's true camera mount:"
+  rosrun autocal compare_extrinsics --robot-config "$robot" --calibration "$extrinsics" \
+    --camera-info "$camera"
+else
+  echo "demo: no camera extrinsics written (see the wheel stage in $out/roslaunch.log)"
+fi
 
 # Duckietown's acceptance test, on an empty floor, before (defaults) and after (the calibration).
 echo
@@ -60,5 +70,6 @@ paste <(grep -o 'speed_mps: [^,]*, drift_m: [^,]*, [^,]*, reached: [a-z]*' "$out
     printf "%-10s %16s %16s\n", sprintf("%.2f m/s", $2), b, a }'
 echo "(Duckietown accepts 10 cm over 2 m.)"
 echo
-echo "demo: calibrations in $cal (camera_intrinsic/$veh.yaml and its views, kinematics/$veh.yaml),"
+echo "demo: calibrations in $cal (camera_intrinsic/$veh.yaml and its views, kinematics/$veh.yaml,"
+echo "      camera_extrinsic/$veh.yaml),"
 echo "      the run's report in $cal/report/$veh (report.png, summary.yaml), logs in $out"

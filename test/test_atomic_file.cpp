@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <thread>
 
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
@@ -93,6 +94,28 @@ TEST_F(AtomicFileTest, WritableFolderCheckLeavesNothing) {
           << e.what();
     }
   }
+}
+
+// Two stages start together and check their folders under one root that does not exist yet
+// (replay.test's cut replay: the camera and wheel nodes, calibration_root removed just before):
+// one check removes the root it created while the other is creating its folder in it.
+TEST_F(AtomicFileTest, TwoChecksUnderOneMissingRootBothPass) {
+  const std::filesystem::path root = dir_ / "race";
+  for (int round = 0; round < 200; ++round) {
+    std::filesystem::remove_all(root);
+    std::string failure;
+    std::thread other([&] {
+      try {
+        autocal::checkWritableFolder((root / "camera_intrinsic").string());
+      } catch (const std::exception& e) {
+        failure = e.what();
+      }
+    });
+    EXPECT_NO_THROW(autocal::checkWritableFolder((root / "kinematics").string()));
+    other.join();
+    EXPECT_EQ(failure, "");
+  }
+  EXPECT_FALSE(std::filesystem::exists(root));
 }
 
 TEST_F(AtomicFileTest, ReadMissingFileThrows) {

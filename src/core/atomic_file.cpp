@@ -81,37 +81,47 @@ void writeFileAtomically(const std::string& path, const std::string& contents,
 }
 
 void checkWritableFolder(const std::string& dir) {
-  std::error_code ec;
-  // The folders this check creates, deepest first: removed again after the probe (the stage
-  // creates them when it writes), so that a check leaves the file system as it found it.
-  std::vector<fs::path> created;
-  for (fs::path p = fs::absolute(dir, ec); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
-    created.push_back(p);
-    if (p == p.parent_path()) break;
-  }
-  const auto removeCreated = [&] {
-    std::error_code ignored;  // a folder another process filled meanwhile stays
-    for (const fs::path& p : created) fs::remove(p, ignored);
-  };
-  fs::create_directories(dir, ec);
-  if (ec) {
-    const std::string reason = ec.message();
+  // Another stage may check a folder beside this one at the same time, and remove a parent both
+  // created between this one's steps (ENOENT): then the check starts again.
+  constexpr int kAttempts = 5;
+  for (int attempt = 1;; ++attempt) {
+    std::error_code ec;
+    // The folders this check creates, deepest first: removed again after the probe (the stage
+    // creates them when it writes), so that a check leaves the file system as it found it.
+    std::vector<fs::path> created;
+    for (fs::path p = fs::absolute(dir, ec); !p.empty() && !fs::exists(p, ec);
+         p = p.parent_path()) {
+      created.push_back(p);
+      if (p == p.parent_path()) break;
+    }
+    const auto removeCreated = [&] {
+      std::error_code ignored;  // a folder another process filled meanwhile stays
+      for (const fs::path& p : created) fs::remove(p, ignored);
+    };
+    fs::create_directories(dir, ec);
+    if (ec) {
+      const std::string reason = ec.message();
+      removeCreated();
+      if (ec == std::errc::no_such_file_or_directory && attempt < kAttempts) continue;
+      throw IoError(dir + ": cannot write here (cannot create the folder: " + reason + ")");
+    }
+    std::string tmpl = (fs::path(dir) / ".autocal_write_check.XXXXXX").string();
+    const int fd = ::mkstemp(tmpl.data());
+    if (fd < 0) {
+      const int error = errno;
+      const std::string reason = errnoText();
+      removeCreated();
+      if (error == ENOENT && attempt < kAttempts) continue;
+      throw IoError(dir + ": cannot write here (" + reason + ")");
+    }
+    const bool wrote = ::write(fd, "x", 1) == 1;
+    const std::string reason = wrote ? "" : errnoText();
+    ::close(fd);
+    ::unlink(tmpl.c_str());
     removeCreated();
-    throw IoError(dir + ": cannot write here (cannot create the folder: " + reason + ")");
+    if (!wrote) throw IoError(dir + ": cannot write here (" + reason + ")");
+    return;
   }
-  std::string tmpl = (fs::path(dir) / ".autocal_write_check.XXXXXX").string();
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0) {
-    const std::string reason = errnoText();
-    removeCreated();
-    throw IoError(dir + ": cannot write here (" + reason + ")");
-  }
-  const bool wrote = ::write(fd, "x", 1) == 1;
-  const std::string reason = wrote ? "" : errnoText();
-  ::close(fd);
-  ::unlink(tmpl.c_str());
-  removeCreated();
-  if (!wrote) throw IoError(dir + ": cannot write here (" + reason + ")");
 }
 
 std::string readFile(const std::string& path) {

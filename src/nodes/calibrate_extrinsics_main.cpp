@@ -29,8 +29,10 @@ int run(const std::vector<std::string>& argv) {
   const CameraInfoRectification camera = loadRectification(args.camera_info);
   const cv::Mat image = readImageFile(args.image, cv::IMREAD_COLOR);
   const FloorBoardResult r = calibrateFromFloorBoard(image, camera, args.options);
-  writeFileAtomically(args.out,
-                      extrinsicsYaml(r, camera.rectified, args.image, odometry::utcNowIso8601()));
+  writeFileAtomically(
+      args.out, extrinsicsYaml(r.homography, r.mount, &r.mount_sigma,
+                               {{"board_rms_m", r.board_rms_m}, {"board_max_m", r.board_max_m}},
+                               camera.rectified, args.image, odometry::utcNowIso8601()));
   const CameraMount& m = r.mount;
   const CameraMount& s = r.mount_sigma;
   std::printf(

@@ -11,8 +11,8 @@
 
 #include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
+#include "autocal/sim/floor_truth.h"
 #include "autocal/sim/renderer.h"
-#include "support/floor_truth.h"
 
 namespace {
 
@@ -46,8 +46,8 @@ class CalibrateExtrinsicsTool : public ::testing::Test {
     robot_ = sim::loadRobotConfig(kConfigDir + "robot.yaml");
     robot_.camera.roll_rad = 0.02;
     robot_.camera.yaw_rad = -0.03;
-    camera_ = test::trueCameraInfo(robot_);
-    writeFileAtomically((dir_ / "camera.yaml").string(), test::cameraInfoYaml(camera_));
+    camera_ = sim::trueCameraInfo(robot_);
+    writeFileAtomically((dir_ / "camera.yaml").string(), sim::cameraInfoYaml(camera_));
   }
   void TearDown() override { fs::remove_all(dir_); }
 
@@ -76,7 +76,7 @@ TEST_F(CalibrateExtrinsicsTool, WritesDuckietownsFileWithinFiveMillimetresAndKee
   const ToolRun r = tool(args, dir_);
   ASSERT_EQ(r.code, 0) << r.output;
   const Eigen::Matrix3d H = extrinsics::readHomography(out.string());
-  const test::FloorError e = test::floorError(robot_, camera_.rectified, H);
+  const sim::FloorError e = sim::floorError(robot_, camera_.rectified, H);
   std::printf("floor: %.2f mm RMS, %.2f mm worst over %d points\n", 1e3 * e.rms_m, 1e3 * e.max_m,
               e.points);
   EXPECT_GT(e.points, 100);
@@ -107,7 +107,7 @@ TEST_F(CalibrateExtrinsicsTool, RefusesWithTheCauseAndWritesNothing) {
   EXPECT_FALSE(fs::exists(out));
 
   // A camera_info without P: the homography would be for no known rectified image.
-  std::string yaml = test::cameraInfoYaml(camera_);
+  std::string yaml = sim::cameraInfoYaml(camera_);
   yaml = yaml.substr(0, yaml.find("projection_matrix:"));
   writeFileAtomically((dir_ / "no_p.yaml").string(), yaml);
   r = tool("--image " + image.string() + " --camera-info " + (dir_ / "no_p.yaml").string() + to,

@@ -11,8 +11,8 @@
 #include "autocal/errors.h"
 #include "autocal/extrinsics/floor_board.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/floor_truth.h"
 #include "autocal/sim/renderer.h"
-#include "support/floor_truth.h"
 
 namespace {
 
@@ -66,10 +66,10 @@ sim::RobotConfig mountNumber(int i) {
 TEST_P(FloorBoardInSim, GroundProjectionWithinAMillimetresOverTheFloorItSees) {
   const sim::RobotConfig robot = mountNumber(GetParam());
   const sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
-  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
+  const extrinsics::CameraInfoRectification camera = sim::trueCameraInfo(robot);
   const extrinsics::FloorBoardResult r =
       extrinsics::calibrateFromFloorBoard(renderStill(robot, world), camera, {});
-  const test::FloorError e = test::floorError(robot, camera.rectified, r.homography);
+  const sim::FloorError e = sim::floorError(robot, camera.rectified, r.homography);
   const extrinsics::CameraMount& m = r.mount;
   const sim::CameraConfig& t = robot.camera;
   std::printf(
@@ -112,7 +112,7 @@ double edgeInRow(const cv::Mat& bgr, int v, int channel, double level, int from_
 TEST(FloorBoardInSim, LaneLinesLandWhereTheWorldPutsThem) {
   const sim::RobotConfig robot = mountNumber(1);
   const sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
-  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
+  const extrinsics::CameraInfoRectification camera = sim::trueCameraInfo(robot);
   const cv::Mat raw = renderStill(robot, world);
   const extrinsics::FloorBoardResult r = extrinsics::calibrateFromFloorBoard(raw, camera, {});
   const cv::Mat rectified = extrinsics::rectifyImage(raw, camera);
@@ -155,7 +155,7 @@ TEST(FloorBoardInSimFails, NoBoardInView) {
   sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world_extrinsics.yaml");
   world.floor_boards.front().pose.x_m = -1.0;  // behind the robot
   try {
-    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), test::trueCameraInfo(robot), {});
+    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), sim::trueCameraInfo(robot), {});
     FAIL() << "no error";
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("not found"), std::string::npos) << e.what();
@@ -168,7 +168,7 @@ TEST(FloorBoardInSimFails, OffsetsThatPutTheCameraWhereNoDuckiebotHasIt) {
   extrinsics::FloorBoardOptions o;
   o.board.offset_x_m = 0.55;  // the board said to lie 0.36 m further out than it does
   try {
-    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), test::trueCameraInfo(robot), o);
+    extrinsics::calibrateFromFloorBoard(renderStill(robot, world), sim::trueCameraInfo(robot), o);
     FAIL() << "no error";
   } catch (const CalibrationError& e) {
     EXPECT_NE(std::string(e.what()).find("no Duckiebot can have"), std::string::npos) << e.what();

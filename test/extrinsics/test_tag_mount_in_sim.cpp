@@ -12,9 +12,9 @@
 #include "autocal/extrinsics/tag_mount.h"
 #include "autocal/markers/tag_detector.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/floor_truth.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
-#include "support/floor_truth.h"
 
 namespace {
 
@@ -110,9 +110,9 @@ TEST_P(TagMountInSim, MountFromTagsWithinTheTargets) {
   const extrinsics::TagMountResult r = extrinsics::mountFromTags(rec.stills, rec.pairs, {});
   const extrinsics::CameraMount& m = r.mount;
   const sim::CameraConfig& t = robot.camera;
-  const extrinsics::CameraInfoRectification camera = test::trueCameraInfo(robot);
-  const test::FloorError e = test::floorError(robot, camera.rectified,
-                                              extrinsics::homographyFromMount(m, camera.rectified));
+  const extrinsics::CameraInfoRectification camera = sim::trueCameraInfo(robot);
+  const sim::FloorError e = sim::floorError(robot, camera.rectified,
+                                            extrinsics::homographyFromMount(m, camera.rectified));
   std::printf(
       "mount %d: floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
       "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm (%.2f); "

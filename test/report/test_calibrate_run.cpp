@@ -9,8 +9,10 @@
 #include <filesystem>
 #include <iostream>
 
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/yaml_reader.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/floor_truth.h"
 #include "autocal/wheels/kinematics.h"
 #include "support/ros_wait.h"
 #include "support/test_params.h"
@@ -66,6 +68,19 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
     std::cout << "drift over 2 m at " << d.speed_mps << " m/s: " << d.drift_m << " m" << std::endl;
     EXPECT_LE(d.drift_m, d.bound_m) << " at " << d.speed_mps << " m/s";
   }
+
+  // Extrinsics: the wheel stage's camera mount as a ground homography for the camera stage's P;
+  // each floor point's true pixel rectified with the calibrated camera and projected.
+  const fs::path extrinsic = root / "camera_extrinsic" / (veh + ".yaml");
+  ASSERT_TRUE(fs::exists(extrinsic)) << extrinsic;
+  const autocal::sim::FloorError floor = autocal::sim::floorErrorThroughCalibration(
+      robot,
+      autocal::extrinsics::loadRectification(stages.map("camera").required<std::string>("file")),
+      autocal::extrinsics::readHomography(extrinsic.string()));
+  std::cout << "ground projection: " << 1e3 * floor.rms_m << " mm RMS, " << 1e3 * floor.max_m
+            << " mm worst over " << floor.points << " floor points" << std::endl;
+  EXPECT_LE(floor.rms_m, 0.01);
+  EXPECT_LE(floor.max_m, 0.02);
 
   if (!testParam<bool>("odometry")) {
     EXPECT_FALSE(stages.has("odometry"));

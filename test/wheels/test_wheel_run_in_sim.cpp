@@ -13,6 +13,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/floor_truth.h"
 #include "autocal/wheels/wheel_replay.h"
 #include "support/wheels_in_sim.h"
 
@@ -220,6 +221,47 @@ TEST(MotorFitter, EachWheelsRateFromItsOwnReadingsHoweverLateTheyArrive) {
     ASSERT_TRUE(fit.left().valid && fit.right().valid);
     EXPECT_NEAR(fit.left().offset, 0.08, 1e-3) << "seed " << seed;
     EXPECT_NEAR(fit.right().offset, 0.075, 1e-3) << "seed " << seed;
+  }
+}
+
+// The camera's mount from the stage's own stills (extrinsics_spins): after the trim converged,
+// four turns on the spot; the drives forward and back and the turns give the mount
+// (extrinsics::mountFromTags), judged by the simulator's truth; the trim is what it is without.
+TEST(WheelRunInSim, CameraMountFromTheStagesStills) {
+  for (int variant = 0; variant < 2; ++variant) {
+    sim::RobotConfig robot = robotConfig("robot.yaml");
+    if (variant == 1) {
+      sim::CameraConfig& c = robot.camera;
+      c.height_m = 0.098, c.pitch_rad = 0.3, c.roll_rad = -0.02, c.yaw_rad = 0.03, c.y_m = 0.01;
+    }
+    wheels::WheelRunOptions o = optionsFor(robot, robot.deadband + 0.007);
+    o.extrinsics_spins = 4;
+    wheels::WheelRun run(o, robot.camera.truth);
+    const test::WheelsInSim r = test::runWheelsInSim(robot, defaultWorld(), run, {});
+    ASSERT_TRUE(r.done) << r.failure;
+    ASSERT_NE(run.extrinsicsResult(), nullptr) << run.extrinsicsFailure();
+    const extrinsics::TagMountResult& x = *run.extrinsicsResult();
+    const extrinsics::CameraMount& m = x.mount;
+    const sim::CameraConfig& t = robot.camera;
+    const extrinsics::CameraInfoRectification camera = sim::trueCameraInfo(robot);
+    const sim::FloorError e = sim::floorError(robot, camera.rectified,
+                                              extrinsics::homographyFromMount(m, camera.rectified));
+    std::printf(
+        "mount %d: floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
+        "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm (%.2f); "
+        "%d drives, %d turns, %d corners; trim %.5f, %zu drives, sim %.1f s\n",
+        variant, 1e3 * e.rms_m, 1e3 * e.max_m, 1e3 * m.height_m, 1e3 * t.height_m,
+        m.pitch_rad * 180 / M_PI, t.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
+        t.roll_rad * 180 / M_PI, m.yaw_rad * 180 / M_PI, t.yaw_rad * 180 / M_PI, 1e3 * m.x_m,
+        1e3 * t.x_m, 1e3 * m.y_m, 1e3 * t.y_m, x.straight, x.spins, x.corners, r.result.trim,
+        r.iterations.size(), r.sim_s);
+    EXPECT_LE(e.rms_m, 0.01);
+    EXPECT_LE(e.max_m, 0.02);
+    EXPECT_NEAR(m.height_m, t.height_m, 0.002);
+    EXPECT_NEAR(m.pitch_rad, t.pitch_rad, 0.3 * M_PI / 180);
+    EXPECT_NEAR(m.roll_rad, t.roll_rad, 0.3 * M_PI / 180);
+    EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * M_PI / 180);
+    EXPECT_LE(test::straightDriftM(robot, r.result, 0.25), 0.02);
   }
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autocal/extrinsics/floor_board.h"
@@ -12,10 +13,18 @@ namespace extrinsics {
 
 /// The file's text. `homography` (9 numbers, row-major) is the key Duckietown reads (its
 /// version-1 form: pixels of the rectified image at the camera_info's own resolution); the others
-/// are autocal's: the camera pose it comes from and one standard deviation of each number, the
-/// board's residual, and the P it is for. A comment gives the time and the source.
-std::string extrinsicsYaml(const FloorBoardResult& result, const RectifiedCamera& camera,
-                           const std::string& source, const std::string& time_utc);
+/// are autocal's: the camera pose it comes from, one standard deviation of each number when known
+/// (`sigma`), how well the data fit (`figures`, e.g. board_rms_m), and the P it is for. A comment
+/// gives the time and the source.
+std::string extrinsicsYaml(const Eigen::Matrix3d& homography, const CameraMount& mount,
+                           const CameraMount* sigma,
+                           const std::vector<std::pair<std::string, double>>& figures,
+                           const RectifiedCamera& camera, const std::string& source,
+                           const std::string& time_utc);
+
+/// camera_extrinsic/<veh>.yaml under a calibration root; throws ConfigError on an empty root or
+/// a vehicle name with '/'.
+std::string extrinsicsPath(const std::string& calibration_root, const std::string& vehicle);
 
 /// The homography of such a file (Duckietown's or autocal's). Throws ConfigError naming the file
 /// when it has no 9 finite numbers under `homography`.

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "autocal/camera_intrinsics.h"
+#include "autocal/extrinsics/tag_mount.h"
 #include "autocal/markers/tag_detector.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
@@ -112,6 +113,14 @@ struct WheelRunOptions {
   double exit_extra_m = 0.3;
   double max_leave_m = 3.0;
 
+  /// The camera's mount from the floor tags (extrinsics::mountFromTags): after the trim converged
+  /// and before leaving, turn on the spot this many times between stills (by +1, −2, +2, −1, ...
+  /// times extrinsics_spin_rad), and fit the mount to the tags of every still of the stage
+  /// (the drives forward and back give the yaw, the turns the camera's place). 0: no extrinsics.
+  int extrinsics_spins = 0;
+  double extrinsics_spin_rad = 0.3;
+  extrinsics::TagMountOptions extrinsics;
+
   double camera_timeout_s = 5.0;
   double encoder_timeout_s = 2.0;
   double max_duration_s = 600.0;
@@ -120,8 +129,9 @@ struct WheelRunOptions {
   void validate() const;
 };
 
-enum class WheelRunStage { kWaitForData, kAlign, kIterate, kLeave, kDone, kFailed };
-const char* name(WheelRunStage stage);  ///< "wait", "align", "iterate", "leave", "done", "failed"
+enum class WheelRunStage { kWaitForData, kAlign, kIterate, kExtrinsics, kLeave, kDone, kFailed };
+/// "wait", "align", "iterate", "extrinsics", "leave", "done", "failed"
+const char* name(WheelRunStage stage);
 
 /// The stage's tag detector: the options' detector, searching only the rows that can show floor
 /// within reach (crop_to_floor), with the floor's normal from the mount.
@@ -187,6 +197,12 @@ class WheelRun {
   const MotorFit& motorFit(bool left) const { return left ? fitter_.left() : fitter_.right(); }
   /// The last heading measured [rad] (NaN before the first).
   double lastHeadingRad() const { return last_heading_rad_; }
+  /// The camera's mount from the floor tags, once the turns for it are done (extrinsics_spins >
+  /// 0); nullptr before, or when it failed (extrinsicsFailure() says why: the stage goes on).
+  const extrinsics::TagMountResult* extrinsicsResult() const {
+    return extrinsics_done_ && extrinsics_failure_.empty() ? &extrinsics_result_ : nullptr;
+  }
+  const std::string& extrinsicsFailure() const { return extrinsics_failure_; }
   /// Tags detected in the last processed frame.
   const std::vector<markers::TagDetection>& lastDetections() const { return last_detections_; }
   double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
@@ -196,8 +212,16 @@ class WheelRun {
   std::string describe() const;
 
  private:
-  enum class Motion { kNone, kPulse, kDrive, kSettle, kMeasure };
-  enum class Purpose { kAlign, kBeforeDrive, kAfterForward, kAfterDrive, kAfterBack, kLeaveDrive };
+  enum class Motion { kNone, kPulse, kSpin, kDrive, kSettle, kMeasure };
+  enum class Purpose {
+    kAlign,
+    kBeforeDrive,
+    kAfterForward,
+    kAfterDrive,
+    kAfterBack,
+    kLeaveDrive,
+    kSpin
+  };
 
   void fail(const std::string& why);
   void startAlign(WheelRunStage then);
@@ -211,6 +235,11 @@ class WheelRun {
   void onSettled(double now_s);
   void recordDriveForFit();
   void startLeave(double now_s);
+  void startSpin();
+  /// A measurement ended: its tags become a still of the extrinsics, paired with the one before
+  /// when a drive or a turn on the spot lay between them.
+  void recordStill();
+  void finishExtrinsics();
   KinematicsParams driveParams() const;
   double driveSeconds(double speed_mps) const;
   double driveDistanceM() const;
@@ -278,6 +307,20 @@ class WheelRun {
   double last_tag_seen_s_ = 0;
   bool leave_clear_ = false;
   int leave_clear_left_ = 0;
+
+  // extrinsics
+  std::vector<extrinsics::TagSeen> still_tags_;  ///< of the measurement under way
+  std::vector<extrinsics::TagStill> stills_;
+  std::vector<extrinsics::StillPair> still_pairs_;
+  /// What the robot did since the last still (none: nothing the extrinsics can use).
+  enum class SinceStill { kNone, kForward, kBackward, kSpin };
+  SinceStill since_still_ = SinceStill::kNone;
+  int spins_done_ = 0;
+  double spun_rad_ = 0;  ///< the turns commanded so far, summed
+  int spin_start_right_ = 0, spin_ticks_ = 1;
+  bool extrinsics_done_ = false;
+  extrinsics::TagMountResult extrinsics_result_;
+  std::string extrinsics_failure_;
 };
 
 }  // namespace wheels

@@ -29,22 +29,32 @@ std::string mountMap(const CameraMount& m) {
 
 }  // namespace
 
-std::string extrinsicsYaml(const FloorBoardResult& r, const RectifiedCamera& camera,
-                           const std::string& source, const std::string& time_utc) {
+std::string extrinsicsYaml(const Eigen::Matrix3d& homography, const CameraMount& mount,
+                           const CameraMount* sigma,
+                           const std::vector<std::pair<std::string, double>>& figures,
+                           const RectifiedCamera& camera, const std::string& source,
+                           const std::string& time_utc) {
   std::ostringstream y;
   y << "# autocal camera extrinsics, " << time_utc << ", from " << source << "\n"
     << "# homography: a pixel (u, v) of the image rectified with projection_matrix to the floor\n"
     << "# point (x forward, y left, metres; origin below the middle of the wheel axle):\n"
     << "# [x, y, w] = H [u, v, 1], point (x/w, y/w) (dt-core GroundProjectionGeometry).\n"
-    << "homography: " << list(r.homography) << "\n"
-    << "# the camera's pose on the robot it comes from, and one standard deviation of each\n"
-    << "camera_pose: " << mountMap(r.mount) << "\n"
-    << "camera_pose_sigma: " << mountMap(r.mount_sigma) << "\n"
-    << "board_rms_m: " << formatNumber(r.board_rms_m, 4) << "\n"
-    << "board_max_m: " << formatNumber(r.board_max_m, 4) << "\n"
-    << "# the left 3x3 of the camera_info's P the homography is for\n"
+    << "homography: " << list(homography) << "\n"
+    << "# the camera's pose on the robot it comes from"
+    << (sigma ? ", and one standard deviation of each" : "") << "\n"
+    << "camera_pose: " << mountMap(mount) << "\n";
+  if (sigma) y << "camera_pose_sigma: " << mountMap(*sigma) << "\n";
+  for (const auto& [key, value] : figures) y << key << ": " << formatNumber(value, 4) << "\n";
+  y << "# the left 3x3 of the camera_info's P the homography is for\n"
     << "projection_matrix: " << list(camera.P) << "\n";
   return y.str();
+}
+
+std::string extrinsicsPath(const std::string& calibration_root, const std::string& vehicle) {
+  if (vehicle.empty() || vehicle.find('/') != std::string::npos)
+    throw ConfigError("vehicle name must be a non-empty name without '/', got '" + vehicle + "'");
+  if (calibration_root.empty()) throw ConfigError("calibration_root must not be empty");
+  return calibration_root + "/camera_extrinsic/" + vehicle + ".yaml";
 }
 
 Eigen::Matrix3d readHomography(const std::string& path) {

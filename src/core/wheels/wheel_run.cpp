@@ -36,6 +36,8 @@ const char* name(WheelRunStage stage) {
       return "align";
     case WheelRunStage::kIterate:
       return "iterate";
+    case WheelRunStage::kExtrinsics:
+      return "extrinsics";
     case WheelRunStage::kLeave:
       return "leave";
     case WheelRunStage::kDone:
@@ -47,6 +49,11 @@ const char* name(WheelRunStage stage) {
 }
 
 void WheelRunOptions::validate() const {
+  if (extrinsics_spins < 0 || extrinsics_spins > 20)
+    throw ConfigError("extrinsics_spins: must be within [0, 20]");
+  if (!(extrinsics_spin_rad >= 0.1 && extrinsics_spin_rad <= 0.6))
+    throw ConfigError("extrinsics_spin_rad: must be within [0.1, 0.6] [rad]");
+  if (extrinsics_spins > 0) extrinsics.validate();
   detector.validate();
   heading.validate();
   mount.validate();
@@ -229,6 +236,7 @@ void WheelRun::startMeasure(Purpose purpose, double now_s) {
   purpose_ = purpose;
   duties_ = {};
   sightings_.clear();
+  still_tags_.clear();
   frames_in_measurement_ = 0;
   frames_without_tags_ = 0;
   measure_from_s_ = now_s;
@@ -252,6 +260,7 @@ void WheelRun::startPulse(double turn_rad) {
   const double duty = std::min(0.9, offset + options_.turn_duty_margin + turn_duty_boost_);
   duties_ = {0.0, pulse_dir_ * duty};
   motion_ = Motion::kPulse;
+  since_still_ = SinceStill::kNone;  // a pivot on the left wheel, not about the axle
   pulse_start_right_ = encoders_.rawRight();
   const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
   pulse_ticks_ =
@@ -269,6 +278,7 @@ void WheelRun::startPulse(double turn_rad) {
 }
 
 void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
+  since_still_ = sign > 0 ? SinceStill::kForward : SinceStill::kBackward;
   const KinematicsParams p = drive_params_ = driveParams();
   const double w = speed_mps / p.radius;
   const WheelDuties d = speedsToDuties(p, {w, w});
@@ -282,6 +292,55 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   drive_start_left_ = encoders_.rawLeft();
   drive_start_right_ = encoders_.rawRight();
   startMotionClock(driveSeconds(speed_mps));
+}
+
+void WheelRun::startSpin() {
+  // Turns of +1, −2, +2, ... times the step, the last one back to where the turns began.
+  const double step = options_.extrinsics_spin_rad;
+  double turn = step;
+  if (spins_done_ == options_.extrinsics_spins - 1 && spins_done_ > 0) {
+    turn = -spun_rad_;
+  } else if (spins_done_ > 0) {
+    turn = spun_rad_ > 0 ? -2 * step : 2 * step;
+  }
+  spun_rad_ += turn;
+  ++spins_done_;
+  // Both wheels at the same speed, opposite ways (the calibrated kinematics): the robot turns
+  // about the middle of its axle. It stops when the right wheel has turned by the turn's share,
+  // R·φ = turn·L/2; how far it really turned the tags measure.
+  const KinematicsParams p = driveParams();
+  const double w = std::copysign(0.1 / p.radius, turn);
+  const WheelDuties d = speedsToDuties(p, {-w, w});
+  duties_ = d;
+  motion_ = Motion::kSpin;
+  purpose_ = Purpose::kSpin;
+  since_still_ = SinceStill::kSpin;
+  spin_start_right_ = encoders_.rawRight();
+  const double wheel_rad = std::abs(turn) * 0.5 * p.baseline / p.radius;
+  spin_ticks_ = std::max(1, static_cast<int>(std::lround(wheel_rad * ticks_per_rev_ / (2 * M_PI))));
+  startMotionClock(3 * options_.max_pulse_s);
+}
+
+void WheelRun::recordStill() {
+  stills_.push_back({still_tags_});
+  const int now = static_cast<int>(stills_.size()) - 1;
+  if (now > 0 && since_still_ != SinceStill::kNone) {
+    const extrinsics::StillMotion m =
+        since_still_ == SinceStill::kForward    ? extrinsics::StillMotion::kForward
+        : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
+                                                : extrinsics::StillMotion::kSpin;
+    still_pairs_.push_back({now - 1, now, m});
+  }
+  since_still_ = SinceStill::kNone;
+}
+
+void WheelRun::finishExtrinsics() {
+  extrinsics_done_ = true;
+  try {
+    extrinsics_result_ = extrinsics::mountFromTags(stills_, still_pairs_, options_.extrinsics);
+  } catch (const Error& e) {
+    extrinsics_failure_ = e.what();
+  }
 }
 
 void WheelRun::startMotionClock(double length_s) {
@@ -336,6 +395,18 @@ void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
   }
   if (motion_ != Motion::kMeasure || stamp_s < measure_from_s_) return;
   ++frames_in_measurement_;
+  if (options_.extrinsics_spins > 0 && !extrinsics_done_) {
+    for (const markers::TagDetection& d : last_detections_) {
+      extrinsics::TagSeen t;
+      t.id = d.id;
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) t.rotation(r, c) = d.rotation(r, c);
+        t.translation_m[r] = d.translation_m[r];
+      }
+      t.size_m = options_.detector.tag_size_m;
+      still_tags_.push_back(t);
+    }
+  }
   if (!measureHeading(frame, options_.heading).valid) {
     ++frames_without_tags_;
   } else {
@@ -352,7 +423,16 @@ void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
 void WheelRun::onMeasured(double now_s) {
   const HeadingMeasurement m = measureHeading(sightings_, options_.heading);
   if (m.valid) last_heading_rad_ = m.heading_rad;
+  if (options_.extrinsics_spins > 0 && !extrinsics_done_) recordStill();
   switch (purpose_) {
+    case Purpose::kSpin:
+      if (spins_done_ < options_.extrinsics_spins) {
+        startSpin();
+      } else {
+        finishExtrinsics();
+        startAlign(WheelRunStage::kLeave);
+      }
+      return;
     case Purpose::kAlign: {
       if (++align_steps_ > options_.max_align_steps) {
         fail("could not align with the floor tags in " + std::to_string(options_.max_align_steps) +
@@ -426,6 +506,7 @@ void WheelRun::onMeasured(double now_s) {
         const WheelDuties d = speedsToDuties(p, {w, w});
         duties_ = {-d.left, -d.right};
         drive_sign_ = -1;
+        since_still_ = SinceStill::kBackward;
         motion_ = Motion::kDrive;
         drive_ = DriveRecord();
         drive_.duties = d;
@@ -459,6 +540,7 @@ void WheelRun::startLeave(double now_s) {
   // Paper §5.1: aligned with the tags, which point towards the lane: drive straight until the last
   // tag has left the view, then a little further (the camera does not see the floor just ahead).
   startDrive(now_s, +1, options_.leave_speed_mps);
+  since_still_ = SinceStill::kNone;
   motion_len_s_ = std::numeric_limits<double>::infinity();
   purpose_ = Purpose::kLeaveDrive;
   leave_start_left_ = encoders_.rawLeft();
@@ -502,10 +584,16 @@ void WheelRun::onSettled(double now_s) {
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
       return;
+    case Purpose::kSpin:
+      startMeasure(Purpose::kSpin, now_s);
+      return;
     case Purpose::kAfterBack:
       creep_m_ += driveDistanceM();  // negative: a drive back
       recordDriveForFit();
-      if (estimator_.converged()) {
+      if (estimator_.converged() && options_.extrinsics_spins > 0 && !extrinsics_done_) {
+        stage_ = WheelRunStage::kExtrinsics;
+        startMeasure(Purpose::kSpin, now_s);
+      } else if (estimator_.converged()) {
         startAlign(WheelRunStage::kLeave);
       } else {
         startMeasure(Purpose::kBeforeDrive, now_s);
@@ -553,7 +641,8 @@ WheelDuties WheelRun::update(double now_s) {
     fail("the wheel stage took longer than max_duration_s " +
          formatNumber(options_.max_duration_s, 4) + " s");
   }
-  if ((motion_ == Motion::kPulse || motion_ == Motion::kDrive) && !motion_clock_started_) {
+  if ((motion_ == Motion::kPulse || motion_ == Motion::kSpin || motion_ == Motion::kDrive) &&
+      !motion_clock_started_) {
     motion_clock_started_ = true;
     motion_end_s_ = now_s + motion_len_s_;
     if (motion_ == Motion::kDrive) drive_.start_s = now_s;
@@ -565,6 +654,11 @@ WheelDuties WheelRun::update(double now_s) {
         pulse_by_ticks_ = now_s < motion_end_s_;
         stopMotion(now_s);
       }
+      break;
+    case Motion::kSpin:
+      if (now_s >= motion_end_s_ ||
+          std::abs(encoders_.rawRight() - spin_start_right_) >= spin_ticks_)
+        stopMotion(now_s);
       break;
     case Motion::kDrive:
       if (stage_ == WheelRunStage::kLeave) {
@@ -605,6 +699,8 @@ double WheelRun::progress() const {
       return after_align_ == WheelRunStage::kLeave ? 0.85 : 0.05 + 0.05 * std::min(iteration_, 1);
     case WheelRunStage::kIterate:
       return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);
+    case WheelRunStage::kExtrinsics:
+      return 0.8 + 0.05 * spins_done_ / std::max(1, options_.extrinsics_spins);
     case WheelRunStage::kLeave:
       return 0.9;
     default:

@@ -8,6 +8,7 @@
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/odometry/calibration_file.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
 #include "autocal_ros/tag_params.h"
@@ -92,9 +93,15 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("camera_timeout_s", r.camera_timeout_s);
   p.get("encoder_timeout_s", r.encoder_timeout_s);
   p.get("max_duration_s", r.max_duration_s);
+  r.extrinsics_spins = 4;  // the node writes the camera's extrinsics by default
+  p.get("extrinsics_spins", r.extrinsics_spins);
+  p.get("extrinsics_spin_rad", r.extrinsics_spin_rad);
   o.validate();
   return o;
 }
+
+/// A paired count (EncoderPairer's, fractional where interpolated) as the stage takes it.
+int count(double ticks) { return static_cast<int>(std::lround(ticks)); }
 
 double figure(const autocal::CalibrationStatus& msg, const std::string& name) {
   for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
@@ -118,9 +125,12 @@ WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle p
       options_(readOptions(nh, pnh)),
       status_throttle_(options_.status_rate_hz) {
   kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
+  extrinsics_path_ = extrinsics::extrinsicsPath(options_.calibration_root, options_.veh);
   before_ = readKinematicsFileOrDefaults(kinematics_path_);  // a malformed file is an error
   // The output folder, before the robot moves (the file is written after the last drive).
   checkWritableFolder(std::filesystem::path(kinematics_path_).parent_path().string());
+  if (options_.run.extrinsics_spins > 0 && !options_.passive)
+    checkWritableFolder(std::filesystem::path(extrinsics_path_).parent_path().string());
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   detections_pub_ =
       nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);
@@ -218,12 +228,13 @@ void WheelCalibrationNode::run() {
       &error_);
   frames_->holdToSize(intrinsics.imageSize());
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_,
-      [this](const ros::Time& stamp, int left, int right, int resolution) {
-        arrivals_.encoders = true;
-        run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
-      },
-      &error_);
+      nh_, [this](const ros::Time&, int, int, int) { arrivals_.encoders = true; }, &error_,
+      [this](int side, const ros::Time& stamp, std::int32_t ticks, int resolution) {
+        for (const EncoderPairer::Pair& p : pairer_.add(side, stamp.toSec(), ticks)) {
+          run_->addEncoders(p.stamp_s, count(p.left_ticks), count(p.right_ticks), resolution,
+                            ros::Time::now().toSec());
+        }
+      });
   connect();
   if (!ros_layer::runStageLoop(
           *run_, [this] { return run_->done(); }, options_.control_rate_hz, error_, arrivals_,
@@ -301,12 +312,14 @@ void WheelCalibrationNode::runPassive() {
       },
       &error_, kReplayQueue);
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_,
-      [this](const ros::Time& stamp, int left, int right, int resolution) {
-        recording_->noteMessage();
-        if (replay_) replay_->addEncoders(stamp.toSec(), left, right, resolution);
+      nh_, [this](const ros::Time&, int, int, int) { recording_->noteMessage(); }, &error_,
+      [this](int side, const ros::Time& stamp, std::int32_t ticks, int resolution) {
+        for (const EncoderPairer::Pair& p : pairer_.add(side, stamp.toSec(), ticks)) {
+          if (replay_)
+            replay_->addEncoders(p.stamp_s, count(p.left_ticks), count(p.right_ticks), resolution);
+        }
       },
-      &error_, ros_layer::EncoderInput::WheelHandler(), kReplayQueue);
+      kReplayQueue);
 
   auto describe = [&] {
     return replay_ ? replay_->describe() : std::string("waiting for the recorded wheel stage");
@@ -383,10 +396,49 @@ void WheelCalibrationNode::runPassive() {
                  {"frames_dropped", static_cast<double>(frames_->dropped())}});
 }
 
+ros_layer::StatusPublisher::Figures WheelCalibrationNode::writeExtrinsics() {
+  if (options_.run.extrinsics_spins == 0) return {};
+  const extrinsics::TagMountResult* x = run_->extrinsicsResult();
+  if (!x) {
+    // The trim is right all the same: the stage succeeds, without the extrinsics file.
+    ROS_WARN("wheel_calibration_node: no camera extrinsics written: %s",
+             run_->extrinsicsFailure().c_str());
+    return {{"extrinsics_written", 0.0}};
+  }
+  const extrinsics::CameraInfoRectification camera =
+      extrinsics::loadRectification(options_.intrinsics_file);
+  const extrinsics::CameraMount& m = x->mount;
+  const Eigen::Matrix3d H = extrinsics::homographyFromMount(m, camera.rectified);
+  writeFileAtomically(extrinsics_path_,
+                      extrinsics::extrinsicsYaml(H, m, nullptr,
+                                                 {{"plane_rms_m", x->plane_rms_m},
+                                                  {"turn_centre_rms_m", x->centre_rms_m},
+                                                  {"yaw_spread_rad", x->yaw_spread_rad},
+                                                  {"drives", static_cast<double>(x->straight)},
+                                                  {"turns", static_cast<double>(x->spins)}},
+                                                 camera.rectified,
+                                                 "the floor tags of the wheel stage (intrinsics " +
+                                                     options_.intrinsics_file + ")",
+                                                 odometry::utcNowIso8601()));
+  ROS_INFO(
+      "wheel_calibration_node: wrote %s: camera %.1f mm high, pitch %.2f deg, roll %.2f deg, yaw "
+      "%.2f deg, %.1f mm ahead of the axle, %.1f mm left (%d drives, %d turns)",
+      extrinsics_path_.c_str(), 1e3 * m.height_m, m.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
+      m.yaw_rad * 180 / M_PI, 1e3 * m.x_m, 1e3 * m.y_m, x->straight, x->spins);
+  return {{"extrinsics_written", 1.0},
+          {"camera_height_m", m.height_m},
+          {"camera_pitch_rad", m.pitch_rad},
+          {"camera_roll_rad", m.roll_rad},
+          {"camera_yaw_rad", m.yaw_rad},
+          {"camera_x_m", m.x_m},
+          {"camera_y_m", m.y_m}};
+}
+
 void WheelCalibrationNode::finish() {
   const KinematicsParams result = run_->result();
   status_.running("wheels/write", 0.98, run_->describe());
   writeKinematicsFile(kinematics_path_, result);  // validates first; throws on failure
+  const ros_layer::StatusPublisher::Figures extrinsic_figures = writeExtrinsics();
   if (options_.update_kinematics_node) {
     // The running kinematics node polls its parameters: the new trim applies without a restart.
     nh_.setParam("kinematics_node/trim", result.trim);
@@ -399,16 +451,18 @@ void WheelCalibrationNode::finish() {
       "drives, %.1f s",
       kinematics_path_.c_str(), result.trim, before_.trim, run_->estimator().ratio(),
       result.deadband_left, result.deadband_right, h.size(), run_->elapsedS());
-  status_.wrote("wheels/write", kinematics_path_,
-                {{"trim", result.trim},
-                 {"trim_before", before_.trim},
-                 {"k", run_->estimator().ratio()},
-                 {"deadband_left", result.deadband_left},
-                 {"deadband_right", result.deadband_right},
-                 {"drives", static_cast<double>(h.size())},
-                 {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
-                 {"frames_dropped", static_cast<double>(frames_->dropped())},
-                 {"elapsed_s", run_->elapsedS()}});
+  ros_layer::StatusPublisher::Figures figures = {
+      {"trim", result.trim},
+      {"trim_before", before_.trim},
+      {"k", run_->estimator().ratio()},
+      {"deadband_left", result.deadband_left},
+      {"deadband_right", result.deadband_right},
+      {"drives", static_cast<double>(h.size())},
+      {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
+      {"frames_dropped", static_cast<double>(frames_->dropped())},
+      {"elapsed_s", run_->elapsedS()}};
+  figures.insert(figures.end(), extrinsic_figures.begin(), extrinsic_figures.end());
+  status_.wrote("wheels/write", kinematics_path_, figures);
 }
 
 }  // namespace wheels

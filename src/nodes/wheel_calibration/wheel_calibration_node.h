@@ -27,6 +27,7 @@
 #include <memory>
 #include <string>
 
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/status_throttle.h"
 #include "autocal/wheels/wheel_replay.h"
 #include "autocal/wheels/wheel_run.h"
@@ -87,6 +88,8 @@ class WheelCalibrationNode {
   void publishStatus(bool force);
   void publishDetections(const ros::Time& stamp);
   void finish();
+  /// Writes camera_extrinsic/<veh>.yaml when the stage measured the mount; its DONE figures.
+  ros_layer::StatusPublisher::Figures writeExtrinsics();
   void runPassive();
   /// Passive: the camera stage's DONE (or FAILED) on calibration/status.
   void onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg);
@@ -111,6 +114,11 @@ class WheelCalibrationNode {
   size_t last_drives_ = 0;
   KinematicsParams before_;
   std::string kinematics_path_;
+  std::string extrinsics_path_;
+  /// Both wheels' counts at one stamp, from the two encoders' messages: paired as they arrive they
+  /// would depend on the order the messages came in, which a replay of the recording does not see
+  /// again (the deadband fit of a replay differed from the live run's).
+  EncoderPairer pairer_;
 };
 
 }  // namespace wheels

@@ -1,7 +1,7 @@
-// The simulator's truth about a robot's view of the floor, for judging ground projections: the
-// camera_info a calibration of the true lens writes, and how far a homography puts floor points
-// from where the simulator's own camera mount (sim::cameraToRobotRotation, not the core's) sees
-// them.
+// The simulator's truth about a robot's view of the floor, for judging ground projections (tests
+// and compare_extrinsics; never a calibration): the camera_info a calibration of the true lens
+// writes, and how far a homography puts floor points from where the simulator's own camera mount
+// (sim::cameraToRobotRotation, not the core's) sees them.
 #pragma once
 
 #include <string>
@@ -10,7 +10,7 @@
 #include "autocal/sim/config.h"
 
 namespace autocal {
-namespace test {
+namespace sim {
 
 /// The true lens with P from OpenCV's optimal new camera matrix at alpha 0 (as the camera stage
 /// writes it) and R the identity.
@@ -34,5 +34,12 @@ struct FloorError {
 FloorError floorError(const sim::RobotConfig& robot, const extrinsics::RectifiedCamera& camera,
                       const Eigen::Matrix3d& H);
 
-}  // namespace test
+/// The same for a calibration: each floor point's true raw pixel (the true lens) is rectified with
+/// the calibrated camera_info (as Duckietown rectifies a frame), projected with H, and compared
+/// with where the point is. Points the true lens does not image are left out.
+FloorError floorErrorThroughCalibration(const sim::RobotConfig& robot,
+                                        const extrinsics::CameraInfoRectification& calibrated,
+                                        const Eigen::Matrix3d& H);
+
+}  // namespace sim
 }  // namespace autocal

@@ -1,4 +1,4 @@
-#include "support/floor_truth.h"
+#include "autocal/sim/floor_truth.h"
 
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -7,10 +7,11 @@
 
 #include "autocal/distortion_model.h"
 #include "autocal/io/format.h"
+#include "autocal/sim/camera_model.h"
 #include "autocal/sim/scene.h"
 
 namespace autocal {
-namespace test {
+namespace sim {
 
 extrinsics::CameraInfoRectification trueCameraInfo(const sim::RobotConfig& robot) {
   extrinsics::CameraInfoRectification c;
@@ -51,7 +52,7 @@ std::string cameraInfoYaml(const extrinsics::CameraInfoRectification& camera) {
 
 bool trueFloorPixel(const sim::RobotConfig& robot, const extrinsics::RectifiedCamera& camera,
                     const Eigen::Vector2d& ground_m, Eigen::Vector2d* pixel) {
-  const Eigen::Matrix3d to_robot = sim::cameraToRobotRotation(robot.camera);
+  const Eigen::Matrix3d to_robot = cameraToRobotRotation(robot.camera);
   const Eigen::Vector3d t(robot.camera.x_m, robot.camera.y_m, robot.camera.height_m);
   const Eigen::Vector3d on_floor(ground_m.x(), ground_m.y(), 0.0);
   const Eigen::Vector3d p = camera.P * camera.R * to_robot.transpose() * (on_floor - t);
@@ -80,5 +81,41 @@ FloorError floorError(const sim::RobotConfig& robot, const extrinsics::Rectified
   return e;
 }
 
-}  // namespace test
+FloorError floorErrorThroughCalibration(const sim::RobotConfig& robot,
+                                        const extrinsics::CameraInfoRectification& calibrated,
+                                        const Eigen::Matrix3d& H) {
+  const CameraModel lens(robot.camera.truth);
+  const Eigen::Matrix3d to_robot = cameraToRobotRotation(robot.camera);
+  const Eigen::Vector3d t(robot.camera.x_m, robot.camera.y_m, robot.camera.height_m);
+  const CameraIntrinsics& in = calibrated.intrinsics;
+  cv::Mat P, R;
+  cv::eigen2cv(calibrated.rectified.P, P);
+  cv::eigen2cv(calibrated.rectified.R, R);
+  FloorError e;
+  double sum = 0;
+  for (int i = 0; i <= 25; ++i) {
+    for (int j = -20; j <= 20; ++j) {
+      const Eigen::Vector2d g(0.1 + 0.02 * i, 0.02 * j);
+      Eigen::Vector2d raw;
+      const Eigen::Vector3d p = to_robot.transpose() * (Eigen::Vector3d(g.x(), g.y(), 0.0) - t);
+      if (p.z() <= 0 || !lens.project(p, &raw) || raw.x() < 0 || raw.y() < 0 ||
+          raw.x() >= in.width || raw.y() >= in.height)
+        continue;
+      std::vector<cv::Point2d> in_px{{raw.x(), raw.y()}}, out_px;
+      const cv::Mat K(in.cameraMatrix()), D(in.distortion_coefficients);
+      if (in.distortion_model == DistortionModel::kEquidistant)
+        cv::fisheye::undistortPoints(in_px, out_px, K, D, R, P);
+      else
+        cv::undistortPoints(in_px, out_px, K, D, R, P);
+      const double d = (extrinsics::pixelToGround(H, {out_px[0].x, out_px[0].y}) - g).norm();
+      sum += d * d;
+      e.max_m = std::max(e.max_m, d);
+      ++e.points;
+    }
+  }
+  e.rms_m = std::sqrt(sum / std::max(1, e.points));
+  return e;
+}
+
+}  // namespace sim
 }  // namespace autocal

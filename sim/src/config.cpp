@@ -51,7 +51,8 @@ Intrinsics readIntrinsics(YamlMap& m, bool with_size, int width, int height) {
   try {
     in.distortion_model = parseDistortionModel(model);
   } catch (const ConfigError&) {
-    m.fail("distortion_model", "must be plumb_bob, rational_polynomial or equidistant, got '" + model + "'");
+    m.fail("distortion_model",
+           "must be plumb_bob, rational_polynomial or equidistant, got '" + model + "'");
   }
   in.distortion_coefficients = m.required<std::vector<double>>("distortion_coefficients");
   const size_t n = distortionCoefficientCount(in.distortion_model);
@@ -69,6 +70,21 @@ Pose2 readPose(YamlMap& m) {
   p.y_m = m.required<double>("y_m");
   p.yaw_rad = m.optional<double>("yaw_rad", 0.0);
   return p;
+}
+
+/// A chessboard's keys, standing (chessboards) or lying (floor_boards): cols, rows, square_m,
+/// margin_m and the pose.
+template <typename Board>
+void readBoard(YamlMap& b, Board* c) {
+  c->cols = b.required<int>("cols");
+  c->rows = b.required<int>("rows");
+  if (c->cols < 2 || c->rows < 2 || c->cols > 40 || c->rows > 40) {
+    b.fail("cols", "inner corners must be 2..40 in each direction");
+  }
+  c->square_m = positive(b, "square_m");
+  c->margin_m = b.optional<double>("margin_m", c->margin_m);
+  if (c->margin_m < 0) b.fail("margin_m", "must be >= 0");
+  c->pose = readPose(b);
 }
 
 std::vector<double> readColor(YamlMap& m, const std::string& key,
@@ -184,7 +200,6 @@ void readSegment(YamlMap& m, double min_length_m, const char* too_short, Segment
   if (std::hypot(c->x1_m - c->x0_m, c->y1_m - c->y0_m) < min_length_m) m.fail("x1_m", too_short);
 }
 
-
 WorldConfig readWorld(YamlMap& m) {
   WorldConfig w;
   if (m.has("robot_start")) {
@@ -195,15 +210,7 @@ WorldConfig readWorld(YamlMap& m) {
   w.floor_color = readColor(m, "floor_color", w.floor_color);
   for (YamlMap& b : m.optionalMapList("chessboards")) {
     ChessboardConfig c;
-    c.cols = b.required<int>("cols");
-    c.rows = b.required<int>("rows");
-    if (c.cols < 2 || c.rows < 2 || c.cols > 40 || c.rows > 40) {
-      b.fail("cols", "inner corners must be 2..40 in each direction");
-    }
-    c.square_m = positive(b, "square_m");
-    c.margin_m = b.optional<double>("margin_m", c.margin_m);
-    if (c.margin_m < 0) b.fail("margin_m", "must be >= 0");
-    c.pose = readPose(b);
+    readBoard(b, &c);
     c.center_z_m = positive(b, "center_z_m");
     const double half_height = 0.5 * ((c.rows + 1) * c.square_m) + c.margin_m;
     if (c.center_z_m < half_height) b.fail("center_z_m", "the board would reach below the floor");
@@ -221,15 +228,7 @@ WorldConfig readWorld(YamlMap& m) {
   }
   for (YamlMap& b : m.optionalMapList("floor_boards")) {
     FloorBoardConfig c;
-    c.cols = b.required<int>("cols");
-    c.rows = b.required<int>("rows");
-    if (c.cols < 2 || c.rows < 2 || c.cols > 40 || c.rows > 40) {
-      b.fail("cols", "inner corners must be 2..40 in each direction");
-    }
-    c.square_m = positive(b, "square_m");
-    c.margin_m = b.optional<double>("margin_m", c.margin_m);
-    if (c.margin_m < 0) b.fail("margin_m", "must be >= 0");
-    c.pose = readPose(b);
+    readBoard(b, &c);
     b.finish();
     w.floor_boards.push_back(c);
   }

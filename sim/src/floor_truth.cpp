@@ -1,6 +1,7 @@
 #include "autocal/sim/floor_truth.h"
 
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <sstream>
@@ -115,6 +116,21 @@ FloorError floorErrorThroughCalibration(const sim::RobotConfig& robot,
   }
   e.rms_m = std::sqrt(sum / std::max(1, e.points));
   return e;
+}
+
+std::string mountVersusTruth(const FloorError& floor, const extrinsics::CameraMount& m,
+                             const CameraConfig& t) {
+  char text[400];
+  const double deg = 180 / M_PI;
+  std::snprintf(text, sizeof text,
+                "floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
+                "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm "
+                "(%.2f)",
+                1e3 * floor.rms_m, 1e3 * floor.max_m, 1e3 * m.height_m, 1e3 * t.height_m,
+                deg * m.pitch_rad, deg * t.pitch_rad, deg * m.roll_rad, deg * t.roll_rad,
+                deg * m.yaw_rad, deg * t.yaw_rad, 1e3 * m.x_m, 1e3 * t.x_m, 1e3 * m.y_m,
+                1e3 * t.y_m);
+  return text;
 }
 
 }  // namespace sim

@@ -114,15 +114,10 @@ TEST_P(TagMountInSim, MountFromTagsWithinTheTargets) {
   const sim::FloorError e = sim::floorError(robot, camera.rectified,
                                             extrinsics::homographyFromMount(m, camera.rectified));
   std::printf(
-      "mount %d: floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
-      "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm (%.2f); "
-      "plane %.2f mm RMS over %d corners, %d drives (yaw spread %.3f deg), %d turns (centre %.2f "
-      "mm)\n",
-      GetParam(), 1e3 * e.rms_m, 1e3 * e.max_m, 1e3 * m.height_m, 1e3 * t.height_m,
-      m.pitch_rad * 180 / M_PI, t.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
-      t.roll_rad * 180 / M_PI, m.yaw_rad * 180 / M_PI, t.yaw_rad * 180 / M_PI, 1e3 * m.x_m,
-      1e3 * t.x_m, 1e3 * m.y_m, 1e3 * t.y_m, 1e3 * r.plane_rms_m, r.corners, r.straight,
-      r.yaw_spread_rad * 180 / M_PI, r.spins, 1e3 * r.centre_rms_m);
+      "mount %d: %s; plane %.2f mm RMS over %d corners, %d drives (yaw spread %.3f deg), "
+      "%d turns (centre %.2f mm)\n",
+      GetParam(), sim::mountVersusTruth(e, m, t).c_str(), 1e3 * r.plane_rms_m, r.corners,
+      r.straight, r.yaw_spread_rad * 180 / M_PI, r.spins, 1e3 * r.centre_rms_m);
   EXPECT_LE(e.rms_m, 0.01);
   EXPECT_LE(e.max_m, 0.02);
   const double deg = M_PI / 180;

@@ -247,14 +247,9 @@ TEST(WheelRunInSim, CameraMountFromTheStagesStills) {
     const sim::FloorError e = sim::floorError(robot, camera.rectified,
                                               extrinsics::homographyFromMount(m, camera.rectified));
     std::printf(
-        "mount %d: floor %.2f mm RMS, %.2f mm worst; height %.2f mm (truth %.2f), pitch %.3f deg "
-        "(%.3f), roll %.3f deg (%.3f), yaw %.3f deg (%.3f), x %.2f mm (%.2f), y %.2f mm (%.2f); "
-        "%d drives, %d turns, %d corners; trim %.5f, %zu drives, sim %.1f s\n",
-        variant, 1e3 * e.rms_m, 1e3 * e.max_m, 1e3 * m.height_m, 1e3 * t.height_m,
-        m.pitch_rad * 180 / M_PI, t.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
-        t.roll_rad * 180 / M_PI, m.yaw_rad * 180 / M_PI, t.yaw_rad * 180 / M_PI, 1e3 * m.x_m,
-        1e3 * t.x_m, 1e3 * m.y_m, 1e3 * t.y_m, x.straight, x.spins, x.corners, r.result.trim,
-        r.iterations.size(), r.sim_s);
+        "mount %d: %s; %d drives, %d turns, %d corners; trim %.5f, %zu drives, sim %.1f s\n",
+        variant, sim::mountVersusTruth(e, m, t).c_str(), x.straight, x.spins, x.corners,
+        r.result.trim, r.iterations.size(), r.sim_s);
     EXPECT_LE(e.rms_m, 0.01);
     EXPECT_LE(e.max_m, 0.02);
     EXPECT_NEAR(m.height_m, t.height_m, 0.002);

@@ -41,5 +41,10 @@ FloorError floorErrorThroughCalibration(const sim::RobotConfig& robot,
                                         const extrinsics::CameraInfoRectification& calibrated,
                                         const Eigen::Matrix3d& H);
 
+/// "floor E mm RMS, M mm worst; height H mm (truth T), pitch ... deg (...), roll, yaw, x, y": a
+/// mount found against the robot's true one, for a test's or a tool's printout.
+std::string mountVersusTruth(const FloorError& floor, const extrinsics::CameraMount& found,
+                             const CameraConfig& truth);
+
 }  // namespace sim
 }  // namespace autocal

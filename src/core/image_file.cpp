@@ -55,4 +55,12 @@ cv::Mat readImageFile(const std::string& path, int flags) {
   return decodeImage(bytes, flags, path);
 }
 
+void writePngAtomically(const std::string& path, const cv::Mat& image,
+                        const AtomicWriteOptions& options) {
+  std::vector<uchar> png;
+  if (image.empty() || !cv::imencode(".png", image, png))
+    throw IoError(path + ": cannot encode the PNG");
+  writeFileAtomically(path, std::string(png.begin(), png.end()), options);
+}
+
 }  // namespace autocal

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
+#include "autocal/extrinsics/floor_board.h"
 #include "autocal/extrinsics/ground_projection.h"
 
 namespace {
@@ -52,6 +54,45 @@ TEST(GroundProjection, ALevelCameraSeesTheFloorAheadBelowTheImageCentre) {
   // Yawed left, the floor straight ahead appears right of the centre.
   const Eigen::Matrix3d yawed = homographyFromMount({0.1, 0.3, 0.0, 0.1, 0.05, 0.0}, cam);
   EXPECT_GT(groundToPixel(yawed, {0.4, 0.0}).x(), cam.P(0, 2));
+}
+
+TEST(FloorGrid, DrawsItsLinesWhereTheHomographyPutsThemAndNothingBehindTheCamera) {
+  const RectifiedCamera cam = someCamera();
+  for (const CameraMount& m : {CameraMount{0.105, 0.26, 0.0, 0.0, 0.055, 0.0},
+                               CameraMount{0.09, 0.4, 0.03, -0.05, 0.07, 0.012}}) {
+    for (const double scale : {1.0, -2.0}) {  // any scale of H, either sign
+      const Eigen::Matrix3d H = scale * homographyFromMount(m, cam);
+      cv::Mat img(480, 640, CV_8UC3, cv::Scalar(0, 0, 0));
+      drawFloorGrid(img, H);
+      const auto at = [&](double x, double y) {
+        const Eigen::Vector2d p = groundToPixel(H, {x, y});
+        return img.at<cv::Vec3b>(static_cast<int>(std::lround(p.y())),
+                                 static_cast<int>(std::lround(p.x())));
+      };
+      // On the centre line (yellow), on a cross line (green), between the lines (nothing).
+      EXPECT_GT(at(0.325, 0.0)[2], 100);
+      EXPECT_LT(at(0.325, 0.0)[0], 60);
+      EXPECT_GT(at(0.30, 0.025)[1], 100);
+      EXPECT_EQ(at(0.325, 0.025), cv::Vec3b(0, 0, 0));
+      // The grid lies inside the image rows the floor 0.1-0.6 m ahead covers.
+      double top = 1e9;
+      for (const double y : {-0.3, 0.0, 0.3}) top = std::min(top, groundToPixel(H, {0.6, y}).y());
+      for (int v = 0; v < static_cast<int>(top) - 2; ++v) {
+        const cv::Mat row = img.row(v);
+        ASSERT_EQ(cv::countNonZero(row.reshape(1)), 0) << "row " << v << " above the grid";
+      }
+    }
+  }
+  // A camera looking almost level: a grid reaching behind it draws only the part in front.
+  const Eigen::Matrix3d level = homographyFromMount({0.1, 0.05, 0.0, 0.0, 0.3, 0.0}, cam);
+  cv::Mat img(480, 640, CV_8UC3, cv::Scalar(0, 0, 0));
+  drawFloorGrid(img, level, {0.0, 2.0, 0.3, 0.1});
+  cv::Mat gray;
+  cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(cv::countNonZero(gray.rowRange(0, 240)), 0);  // nothing above the horizon
+  EXPECT_GT(cv::countNonZero(gray.rowRange(240, 480)), 0);
+  cv::Mat gray_image(480, 640, CV_8UC1);
+  EXPECT_THROW(drawFloorGrid(gray_image, level), autocal::InputError);
 }
 
 TEST(GroundProjection, SingularInputIsAClearError) {

@@ -317,6 +317,42 @@ TEST(Report, WritesTheSheetAndTheSummary) {
   fs::remove_all(dir);
 }
 
+TEST(Report, ShowsTheGroundViewOfTheExtrinsicsWhenGiven) {
+  const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report_ground";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const cv::Vec3b magenta(200, 0, 200);
+  ASSERT_TRUE(cv::imwrite((dir / "bot_ground.png").string(),
+                          cv::Mat(480, 640, CV_8UC3, cv::Scalar(200, 0, 200))));
+  RunRecorder r("bot", {"wheels"});
+  r.addStatus(status(1, "wheels/write", kDone, "wrote k.yaml", {{"extrinsics_written", 1}}));
+  auto magentaPixels = [](const cv::Mat& sheet) {
+    cv::Mat mask;
+    cv::inRange(sheet, cv::Scalar(190, 0, 190), cv::Scalar(210, 10, 210), mask);
+    return cv::countNonZero(mask);
+  };
+  const cv::Mat with = cv::imread(writeReport((dir / "a").string(), r.record(), "", ReportOptions(),
+                                              (dir / "bot_ground.png").string())
+                                      .sheet_png);
+  // The view, scaled into its panel whole (640 x 480 into at most 308 x 298).
+  EXPECT_NEAR(magentaPixels(with), 308 * 231, 308 * 4);
+  EXPECT_EQ(with.at<cv::Vec3b>(95 + 100, 700 + 100), magenta);
+  const cv::Mat without =
+      cv::imread(writeReport((dir / "b").string(), r.record(), "", ReportOptions()).sheet_png);
+  EXPECT_EQ(magentaPixels(without), 0);
+  // A ground view that does not decode is left out: the sheet is written all the same.
+  {
+    std::ofstream f(dir / "broken.png");
+    f << "not a png";
+  }
+  const cv::Mat broken = cv::imread(writeReport((dir / "c").string(), r.record(), "",
+                                                ReportOptions(), (dir / "broken.png").string())
+                                        .sheet_png);
+  EXPECT_EQ(broken.cols, 1600);
+  EXPECT_EQ(magentaPixels(broken), 0);
+  fs::remove_all(dir);
+}
+
 TEST(CameraView, DrawsTheDetectionsOutlines) {
   cv::Mat image(120, 160, CV_8UC3, cv::Scalar(128, 128, 128));
   markers::TagDetection d;

@@ -26,6 +26,10 @@ std::string extrinsicsYaml(const Eigen::Matrix3d& homography, const CameraMount&
 /// a vehicle name with '/'.
 std::string extrinsicsPath(const std::string& calibration_root, const std::string& vehicle);
 
+/// The ground view beside an extrinsics file: `<veh>_ground.png` for `<veh>.yaml` (the floor
+/// grid the homography gives, over the stage's last still, rectified).
+std::string groundViewPath(const std::string& extrinsics_yaml);
+
 /// The homography of such a file (Duckietown's or autocal's). Throws ConfigError naming the file
 /// when it has no 9 finite numbers under `homography`.
 Eigen::Matrix3d readHomography(const std::string& path);

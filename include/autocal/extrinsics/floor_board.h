@@ -73,6 +73,16 @@ struct FloorBoardResult {
 /// The rectified image of a raw one (the camera_info's K, D, R and P).
 cv::Mat rectifyImage(const cv::Mat& raw, const CameraInfoRectification& camera);
 
+/// The floor as a ground homography H sees it, for a person to check: a grid of lines every
+/// step_m from x_near_m to x_far_m ahead of the axle and y_half_m to either side, and the robot's
+/// centre line, drawn into a rectified BGR image (the lines where H puts them; green, the centre
+/// line yellow).
+struct FloorGrid {
+  double x_near_m = 0.1, x_far_m = 0.6, y_half_m = 0.3, step_m = 0.05;
+};
+void drawFloorGrid(cv::Mat& rectified_bgr, const Eigen::Matrix3d& homography,
+                   const FloorGrid& grid = {});
+
 /// The camera's mount and ground homography from a raw image of the board. Throws
 /// CalibrationError with the cause when the board is not found, its corners lie off the fitted
 /// pose (max_board_rms_m), or the pose is outside the limits; ConfigError on bad options.

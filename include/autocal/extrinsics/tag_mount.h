@@ -40,6 +40,9 @@ enum class StillMotion { kForward, kBackward, kSpin };
 struct StillPair {
   int before = 0, after = 0;  ///< indices into the stills
   StillMotion motion = StillMotion::kForward;
+  /// A drive made with the calibrated trim: straight. Its turn is taken as none, not measured by
+  /// the tags; such drives alone give the yaw when there are min_straight of them.
+  bool straight = false;
 };
 
 struct TagMountOptions {
@@ -60,6 +63,10 @@ struct TagMountResult {
   int spins = 0;              ///< turns used for the offsets
   double yaw_spread_rad = 0;  ///< standard deviation of the drives' yaws
   double centre_rms_m = 0;    ///< the turns' residual about the fitted axle centre
+  /// One standard deviation of each of the mount's numbers (delete-one jackknife over the stills);
+  /// has_sigma is false when fewer than three stills could each be left out.
+  CameraMount sigma;
+  bool has_sigma = false;
 };
 
 /// The mount from the stills and the motions between them. Throws CalibrationError naming what is

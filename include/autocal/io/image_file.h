@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "autocal/io/atomic_file.h"
+
 namespace autocal {
 
 /// Empty when `bytes` are not a JPEG or PNG, or one that ends as it should; otherwise why not,
@@ -20,5 +22,10 @@ cv::Mat decodeImage(const std::vector<unsigned char>& bytes, int flags, const st
 /// Reads and decodes the image file `path`; throws InputError naming a folder, a missing or
 /// unreadable file, a truncated or undecodable image.
 cv::Mat readImageFile(const std::string& path, int flags);
+
+/// Encodes `image` as PNG and writes it with writeFileAtomically; throws IoError naming the path
+/// when it cannot be encoded or written.
+void writePngAtomically(const std::string& path, const cv::Mat& image,
+                        const AtomicWriteOptions& options = AtomicWriteOptions());
 
 }  // namespace autocal

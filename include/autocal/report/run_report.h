@@ -180,9 +180,11 @@ struct Gate {
 std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
                                 const ReportOptions& options);
 
-/// The sheet (BGR, 1600 × 1040).
+/// The sheet (BGR, 1600 × 1040). `ground_view`: the wheel stage's floor grid over a rectified
+/// frame (camera_extrinsic/<veh>_ground.png), or empty.
 cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
-                        const ReportOptions& options, const std::string& time_utc);
+                        const ReportOptions& options, const std::string& time_utc,
+                        const cv::Mat& ground_view = cv::Mat());
 /// summary.yaml's text.
 std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
                         const ReportOptions& options, const std::string& time_utc);
@@ -201,9 +203,11 @@ struct ReportFiles {
   std::string sheet_png, summary_yaml;
 };
 /// Writes `<dir>/report.png` and `<dir>/summary.yaml`, each atomically (the audit is read from
-/// `views_yaml` when it exists). Throws IoError when a file cannot be written.
+/// `views_yaml`, the ground view from `ground_png`, each when it exists; a ground view that does
+/// not decode is left out). Throws IoError when a file cannot be written.
 ReportFiles writeReport(const std::string& dir, const RunRecord& record,
-                        const std::string& views_yaml, const ReportOptions& options);
+                        const std::string& views_yaml, const ReportOptions& options,
+                        const std::string& ground_png = "");
 
 }  // namespace report
 }  // namespace autocal

@@ -115,10 +115,14 @@ struct WheelRunOptions {
 
   /// The camera's mount from the floor tags (extrinsics::mountFromTags): after the trim converged
   /// and before leaving, turn on the spot this many times between stills (by +1, −2, +2, −1, ...
-  /// times extrinsics_spin_rad), and fit the mount to the tags of every still of the stage
-  /// (the drives forward and back give the yaw, the turns the camera's place). 0: no extrinsics.
+  /// times extrinsics_spin_rad), then drive extrinsics_drives / 2 hops of extrinsics_drive_m
+  /// straight forward and as many back (short enough that a tag stays in view), and fit the mount
+  /// to the tags of every still of the stage (the straight hops give the yaw, the turns the
+  /// camera's place). 0 spins: no extrinsics.
   int extrinsics_spins = 0;
   double extrinsics_spin_rad = 0.3;
+  double extrinsics_drive_m = 0.12;
+  int extrinsics_drives = 4;  ///< half of them forward, then as many back
   extrinsics::TagMountOptions extrinsics;
 
   double camera_timeout_s = 5.0;
@@ -236,6 +240,8 @@ class WheelRun {
   void recordDriveForFit();
   void startLeave(double now_s);
   void startSpin();
+  /// The extrinsics' short straight drives: forward, then back to where they began.
+  void startExtrinsicsDrive(double now_s);
   /// A measurement ended: its tags become a still of the extrinsics, paired with the one before
   /// when a drive or a turn on the spot lay between them.
   void recordStill();
@@ -316,6 +322,7 @@ class WheelRun {
   enum class SinceStill { kNone, kForward, kBackward, kSpin };
   SinceStill since_still_ = SinceStill::kNone;
   int spins_done_ = 0;
+  int extrinsics_drives_done_ = 0;
   double spun_rad_ = 0;  ///< the turns commanded so far, summed
   int spin_start_right_ = 0, spin_ticks_ = 1;
   bool extrinsics_done_ = false;

@@ -9,6 +9,7 @@
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/io/image_file.h"
 
 namespace autocal {
 namespace camera {
@@ -93,12 +94,8 @@ void writeCameraCalibration(const std::string& yaml_path, const std::string& yam
       if (frame == frames.end()) {
         throw IoError("no frame kept for view " + std::to_string(u) + " (" + v.source + ")");
       }
-      std::vector<uchar> png;
-      if (!cv::imencode(".png", frame->second, png)) {
-        throw IoError("cannot encode " + viewImageName(u));
-      }
-      writeFileAtomically((tmp / viewImageName(u)).string(), std::string(png.begin(), png.end()),
-                          AtomicWriteOptions{"", false});
+      writePngAtomically((tmp / viewImageName(u)).string(), frame->second,
+                         AtomicWriteOptions{"", false});
     }
     writeFileAtomically((tmp / "views.yaml").string(),
                         viewsYaml(board, result, views, yaml.filename().string()),

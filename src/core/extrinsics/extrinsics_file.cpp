@@ -57,6 +57,16 @@ std::string extrinsicsPath(const std::string& calibration_root, const std::strin
   return calibration_root + "/camera_extrinsic/" + vehicle + ".yaml";
 }
 
+std::string groundViewPath(const std::string& extrinsics_yaml) {
+  const std::string suffix = ".yaml";
+  const bool yaml =
+      extrinsics_yaml.size() > suffix.size() &&
+      extrinsics_yaml.compare(extrinsics_yaml.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return (yaml ? extrinsics_yaml.substr(0, extrinsics_yaml.size() - suffix.size())
+               : extrinsics_yaml) +
+         "_ground.png";
+}
+
 Eigen::Matrix3d readHomography(const std::string& path) {
   YamlMap y = YamlMap::loadFile(path);
   const std::vector<double> h = y.required<std::vector<double>>("homography");

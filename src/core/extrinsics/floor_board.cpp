@@ -113,6 +113,43 @@ cv::Mat rectifyImage(const cv::Mat& raw, const CameraInfoRectification& camera) 
   return out;
 }
 
+void drawFloorGrid(cv::Mat& rectified_bgr, const Eigen::Matrix3d& homography,
+                   const FloorGrid& grid) {
+  if (rectified_bgr.type() != CV_8UC3) throw InputError("drawFloorGrid: the image must be BGR");
+  if (!(grid.step_m > 0 && grid.x_far_m > grid.x_near_m && grid.y_half_m > 0))
+    throw ConfigError("drawFloorGrid: the grid must have a positive step and extent");
+  // Each line as short segments (a line on the floor is a line in the rectified image, but its
+  // far end may lie beyond the horizon of a steep camera: points behind it are left out).
+  // A floor point in front of the camera maps to a pixel with the sign of w that a pixel seeing
+  // the floor has (the bottom row's middle); points behind the camera have the other.
+  const Eigen::Matrix3d to_pixel = homography.inverse();
+  const double w_floor = homography.row(2).dot(
+      Eigen::Vector3d(0.5 * rectified_bgr.cols, rectified_bgr.rows - 1.0, 1.0));
+  const double front = w_floor > 0 ? 1.0 : -1.0;
+  const auto line = [&](Eigen::Vector2d a, Eigen::Vector2d b, const cv::Scalar& colour) {
+    const int pieces = 24;
+    for (int i = 0; i < pieces; ++i) {
+      const Eigen::Vector2d p = a + (b - a) * i / pieces, q = a + (b - a) * (i + 1) / pieces;
+      const Eigen::Vector3d hp = front * (to_pixel * Eigen::Vector3d(p.x(), p.y(), 1));
+      const Eigen::Vector3d hq = front * (to_pixel * Eigen::Vector3d(q.x(), q.y(), 1));
+      if (hp.z() <= 0 || hq.z() <= 0) continue;
+      cv::line(rectified_bgr, cv::Point2d(hp.x() / hp.z(), hp.y() / hp.z()),
+               cv::Point2d(hq.x() / hq.z(), hq.y() / hq.z()), colour, 1, cv::LINE_AA);
+    }
+  };
+  const cv::Scalar green(60, 200, 60), yellow(0, 220, 255);
+  const int nx = static_cast<int>(std::floor((grid.x_far_m - grid.x_near_m) / grid.step_m + 1e-9));
+  const int ny = static_cast<int>(std::floor(grid.y_half_m / grid.step_m + 1e-9));
+  for (int i = 0; i <= nx; ++i) {
+    const double x = grid.x_near_m + i * grid.step_m;
+    line({x, -grid.y_half_m}, {x, grid.y_half_m}, green);
+  }
+  for (int j = -ny; j <= ny; ++j) {
+    const double y = j * grid.step_m;
+    line({grid.x_near_m, y}, {grid.x_far_m, y}, j == 0 ? yellow : green);
+  }
+}
+
 FloorBoardResult calibrateFromFloorBoard(const cv::Mat& raw_image,
                                          const CameraInfoRectification& camera,
                                          const FloorBoardOptions& options) {

@@ -13,6 +13,14 @@
 namespace autocal {
 namespace extrinsics {
 
+void TagMountOptions::validate() const {
+  if (!(min_drive_m > 0)) throw ConfigError("min_drive_m: must be > 0 [m]");
+  if (!(min_spin_rad > 0 && min_spin_rad < M_PI))
+    throw ConfigError("min_spin_rad: must be within (0, pi) [rad]");
+  if (min_straight < 1) throw ConfigError("min_straight: must be >= 1");
+  if (min_spins < 1) throw ConfigError("min_spins: must be >= 1");
+}
+
 namespace {
 
 double wrap(double a) { return std::remainder(a, 2 * M_PI); }
@@ -35,6 +43,8 @@ struct ViewMotion {
   int tags = 0;
   double turn = 0;
   Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  /// The tags' mean displacement: the shift had the robot not turned.
+  Eigen::Vector2d shift_straight = Eigen::Vector2d::Zero();
 };
 
 ViewMotion viewMotion(const std::map<int, LevelTag>& before, const std::map<int, LevelTag>& after) {
@@ -52,23 +62,14 @@ ViewMotion viewMotion(const std::map<int, LevelTag>& before, const std::map<int,
   for (const auto& [id, b] : before) {
     const auto a = after.find(id);
     if (a != after.end()) m.shift += (b.at - rot(m.turn) * a->second.at) / m.tags;
+    if (a != after.end()) m.shift_straight += (b.at - a->second.at) / m.tags;
   }
   return m;
 }
 
-}  // namespace
-
-void TagMountOptions::validate() const {
-  if (!(min_drive_m > 0)) throw ConfigError("min_drive_m: must be > 0 [m]");
-  if (!(min_spin_rad > 0 && min_spin_rad < M_PI))
-    throw ConfigError("min_spin_rad: must be within (0, pi) [rad]");
-  if (min_straight < 1) throw ConfigError("min_straight: must be >= 1");
-  if (min_spins < 1) throw ConfigError("min_spins: must be >= 1");
-}
-
-TagMountResult mountFromTags(const std::vector<TagStill>& stills,
-                             const std::vector<StillPair>& pairs, const TagMountOptions& options) {
-  options.validate();
+/// The mount from every still and motion (the estimate mountFromTags reports).
+TagMountResult solveMount(const std::vector<TagStill>& stills, const std::vector<StillPair>& pairs,
+                          const TagMountOptions& options) {
   TagMountResult out;
   // The floor: one plane through every tag corner of every still.
   std::vector<Eigen::Vector3d> corners;
@@ -106,18 +107,27 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   level_mount.yaw_rad = 0;
   const Eigen::Matrix3d level = cameraToRobot(level_mount);  // the robot's frame turned by −yaw
 
+  // Each tag's place in a still's levelled view: the mean over the still's frames that saw it.
   std::vector<std::map<int, LevelTag>> views(stills.size());
   for (size_t i = 0; i < stills.size(); ++i) {
+    std::map<int, std::pair<Eigen::Vector2d, Eigen::Vector3d>> sums;  // at; cos, sin, count
     for (const TagSeen& t : stills[i].tags) {
       const Eigen::Vector3d at = level * t.translation_m;
       const Eigen::Vector3d x = level * t.rotation.col(0);
-      views[i][t.id] = {at.head<2>(), std::atan2(x.y(), x.x())};
+      auto& [at_sum, dir_sum] =
+          sums.try_emplace(t.id, Eigen::Vector2d::Zero(), Eigen::Vector3d::Zero()).first->second;
+      at_sum += at.head<2>();
+      dir_sum += Eigen::Vector3d(x.x(), x.y(), 0).normalized() + Eigen::Vector3d(0, 0, 1);
+    }
+    for (const auto& [id, sum] : sums) {
+      views[i][id] = {sum.first / sum.second.z(), std::atan2(sum.second.y(), sum.second.x())};
     }
   }
 
   // Sort the motions: turns on the spot and straight drives with a tag seen before and after.
   std::vector<ViewMotion> spins;
-  std::vector<std::pair<ViewMotion, bool>> drives;  // and whether it went forward
+  std::vector<std::pair<ViewMotion, bool>> drives;           // and whether it went forward
+  std::vector<std::pair<ViewMotion, bool>> straight_drives;  // those known to be straight
   for (const StillPair& p : pairs) {
     if (p.before < 0 || p.after < 0 || p.before >= static_cast<int>(stills.size()) ||
         p.after >= static_cast<int>(stills.size()))
@@ -129,8 +139,18 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
       if (std::abs(v.turn) >= options.min_spin_rad) spins.push_back(v);
     } else if (v.shift.norm() >= options.min_drive_m) {
       drives.push_back({v, p.motion == StillMotion::kForward});
+      if (p.straight) {
+        // Driven with the calibrated trim: straight, and its turn is better taken as none than
+        // from one tag's angle (a few 0.1 deg off, and a tag 0.35 m ahead moves the shift by
+        // 6 mm per degree).
+        straight_drives.push_back({v, p.motion == StillMotion::kForward});
+        straight_drives.back().first.turn = 0;
+        straight_drives.back().first.shift = v.shift_straight;
+      }
     }
   }
+  // The drives known to be straight give the yaw when there are enough of them.
+  if (static_cast<int>(straight_drives.size()) >= options.min_straight) drives = straight_drives;
   out.straight = static_cast<int>(drives.size());
   out.spins = static_cast<int>(spins.size());
   if (out.spins < options.min_spins) {
@@ -177,6 +197,54 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   const Eigen::Vector2d camera = rot(m.yaw_rad) * (-axle);
   m.x_m = camera.x();
   m.y_m = camera.y();
+  return out;
+}
+
+}  // namespace
+
+TagMountResult mountFromTags(const std::vector<TagStill>& stills,
+                             const std::vector<StillPair>& pairs, const TagMountOptions& options) {
+  options.validate();
+  TagMountResult out = solveMount(stills, pairs, options);
+  // One standard deviation of each number by the delete-one jackknife over the stills (Efron and
+  // Tibshirani, "An Introduction to the Bootstrap", ch. 11): the solve again without one still's
+  // tags (and so without the motions that start or end there). The tags of one still share its
+  // pose and its noise, which a residual per corner would count as independent.
+  std::vector<CameraMount> replicas;
+  std::vector<TagStill> without = stills;
+  for (size_t i = 0; i < stills.size(); ++i) {
+    if (stills[i].tags.empty()) continue;
+    without[i].tags.clear();
+    try {
+      replicas.push_back(solveMount(without, pairs, options).mount);
+    } catch (const CalibrationError&) {
+      // Without this still the data no longer determine the mount: it adds no replica.
+    }
+    without[i].tags = stills[i].tags;
+  }
+  const size_t n = replicas.size();
+  if (n < 3) return out;
+  const CameraMount& m = out.mount;
+  auto sigma = [&](auto field, bool angle) {
+    double mean = 0;
+    for (const CameraMount& r : replicas) {
+      mean += (angle ? wrap(field(r) - field(m)) : field(r) - field(m)) / static_cast<double>(n);
+    }
+    double sq = 0;
+    for (const CameraMount& r : replicas) {
+      const double d = angle ? wrap(field(r) - field(m)) : field(r) - field(m);
+      sq += (d - mean) * (d - mean);
+    }
+    return std::sqrt(sq * static_cast<double>(n - 1) / static_cast<double>(n));
+  };
+  CameraMount& s = out.sigma;
+  s.height_m = sigma([](const CameraMount& r) { return r.height_m; }, false);
+  s.pitch_rad = sigma([](const CameraMount& r) { return r.pitch_rad; }, true);
+  s.roll_rad = sigma([](const CameraMount& r) { return r.roll_rad; }, true);
+  s.yaw_rad = sigma([](const CameraMount& r) { return r.yaw_rad; }, true);
+  s.x_m = sigma([](const CameraMount& r) { return r.x_m; }, false);
+  s.y_m = sigma([](const CameraMount& r) { return r.y_m; }, false);
+  out.has_sigma = true;
   return out;
 }
 

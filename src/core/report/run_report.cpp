@@ -14,6 +14,7 @@
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/io/image_file.h"
 #include "autocal/io/yaml_reader.h"
 #include "autocal/odometry/dead_reckoning.h"
 
@@ -88,6 +89,23 @@ void drawMosaic(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
     }
     text(sheet, formatNumber(v.rms_px, 3) + " px", {cell.x + 3, cell.y + 13}, 0.38, kRed);
   }
+}
+
+void drawGroundView(cv::Mat& sheet, cv::Rect area, const cv::Mat& ground) {
+  text(sheet, "Floor grid by the camera extrinsics", {area.x, area.y - 8}, 0.55);
+  cv::rectangle(sheet, area, kGrey);
+  if (ground.empty()) {
+    text(sheet, "no ground view (no extrinsics", {area.x + 10, area.y + 40}, 0.45);
+    text(sheet, "written by the wheel stage)", {area.x + 10, area.y + 60}, 0.45);
+    return;
+  }
+  const double s =
+      std::min(double(area.width - 2) / ground.cols, double(area.height - 2) / ground.rows);
+  cv::Mat small;
+  cv::resize(ground, small, cv::Size(), s, s, cv::INTER_AREA);
+  small.copyTo(sheet(cv::Rect(area.x + 1, area.y + 1, small.cols, small.rows)));
+  text(sheet, "lines every 5 cm, 0.1-0.6 m ahead;", {area.x + 4, area.y + small.rows + 22}, 0.4);
+  text(sheet, "yellow: the robot's centre line", {area.x + 4, area.y + small.rows + 40}, 0.4);
 }
 
 void drawCoverage(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
@@ -455,7 +473,8 @@ std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit
 }
 
 cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
-                        const ReportOptions& options, const std::string& time_utc) {
+                        const ReportOptions& options, const std::string& time_utc,
+                        const cv::Mat& ground_view) {
   cv::Mat sheet(1040, 1600, CV_8UC3, kWhite);
   const bool ok = record.succeeded();
   text(sheet, "autocal self-calibration: " + record.vehicle, {20, 36}, 0.9, kBlack, 2);
@@ -468,7 +487,8 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   text(sheet, time_utc, {1340, 36}, 0.5, kGrey);
   if (!ok) text(sheet, record.failure(), {20, 62}, 0.5, kRed);
 
-  drawMosaic(sheet, cv::Rect(20, 95, 980, 540), audit);
+  drawMosaic(sheet, cv::Rect(20, 95, 660, 540), audit);
+  drawGroundView(sheet, cv::Rect(700, 95, 310, 300), ground_view);
   drawCoverage(sheet, cv::Rect(1030, 95, 550, 413), audit);
   drawPath(sheet, cv::Rect(20, 680, 620, 330),
            believedPath(record, options.wheel_radius_m, options.baseline_m));
@@ -523,6 +543,7 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
     o << "    phase: " << quoted(s.phase) << "\n";
     if (!s.file.empty()) o << "    file: " << quoted(s.file) << "\n";
     if (!s.failure.empty()) o << "    failure: " << quoted(s.failure) << "\n";
+    if (!s.text.empty()) o << "    text: " << quoted(s.text) << "\n";
     if (s.start_s >= 0) o << "    duration_s: " << num(s.end_s - s.start_s) << "\n";
     o << "    figures: {";
     for (size_t i = 0; i < s.figures.size(); ++i) {
@@ -586,9 +607,18 @@ PreviousStage previousStage(const std::string& summary_yaml, const std::string& 
 }
 
 ReportFiles writeReport(const std::string& dir, const RunRecord& record,
-                        const std::string& views_yaml, const ReportOptions& options) {
+                        const std::string& views_yaml, const ReportOptions& options,
+                        const std::string& ground_png) {
   ViewsAudit audit;
   if (!views_yaml.empty() && fs::exists(views_yaml)) audit = loadViewsAudit(views_yaml);
+  cv::Mat ground;
+  if (!ground_png.empty() && fs::exists(ground_png)) {
+    try {
+      ground = readImageFile(ground_png, cv::IMREAD_COLOR);
+    } catch (const InputError&) {
+      // A picture for a person, not a result: the sheet is written without it.
+    }
+  }
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw IoError(dir + ": cannot create: " + ec.message());
@@ -600,10 +630,7 @@ ReportFiles writeReport(const std::string& dir, const RunRecord& record,
   }();
   ReportFiles files{(fs::path(dir) / "report.png").string(),
                     (fs::path(dir) / "summary.yaml").string()};
-  std::vector<uchar> png;
-  if (!cv::imencode(".png", drawReportSheet(record, audit, options, time_utc), png))
-    throw IoError(files.sheet_png + ": cannot encode the PNG");
-  writeFileAtomically(files.sheet_png, std::string(png.begin(), png.end()));
+  writePngAtomically(files.sheet_png, drawReportSheet(record, audit, options, time_utc, ground));
   writeFileAtomically(files.summary_yaml, summaryYaml(record, audit, options, time_utc));
   return files;
 }

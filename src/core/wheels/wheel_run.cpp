@@ -53,6 +53,10 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_spins: must be within [0, 20]");
   if (!(extrinsics_spin_rad >= 0.1 && extrinsics_spin_rad <= 0.6))
     throw ConfigError("extrinsics_spin_rad: must be within [0.1, 0.6] [rad]");
+  if (!(extrinsics_drive_m >= 0 && extrinsics_drive_m <= 0.5))
+    throw ConfigError("extrinsics_drive_m: must be within [0, 0.5] [m]");
+  if (extrinsics_drives < 0 || extrinsics_drives > 20 || extrinsics_drives % 2 != 0)
+    throw ConfigError("extrinsics_drives: must be an even number within [0, 20]");
   if (extrinsics_spins > 0) extrinsics.validate();
   detector.validate();
   heading.validate();
@@ -321,6 +325,14 @@ void WheelRun::startSpin() {
   startMotionClock(3 * options_.max_pulse_s);
 }
 
+void WheelRun::startExtrinsicsDrive(double now_s) {
+  const int sign = extrinsics_drives_done_ < options_.extrinsics_drives / 2 ? +1 : -1;
+  ++extrinsics_drives_done_;
+  startDrive(now_s, sign, options_.drive_speed_mps);
+  startMotionClock(options_.extrinsics_drive_m / options_.drive_speed_mps);
+  purpose_ = Purpose::kSpin;  // a still follows, as after a turn
+}
+
 void WheelRun::recordStill() {
   stills_.push_back({still_tags_});
   const int now = static_cast<int>(stills_.size()) - 1;
@@ -329,7 +341,10 @@ void WheelRun::recordStill() {
         since_still_ == SinceStill::kForward    ? extrinsics::StillMotion::kForward
         : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
                                                 : extrinsics::StillMotion::kSpin;
-    still_pairs_.push_back({now - 1, now, m});
+    // The stage's own short drives come after the trim converged: straight.
+    const bool straight =
+        stage_ == WheelRunStage::kExtrinsics && m != extrinsics::StillMotion::kSpin;
+    still_pairs_.push_back({now - 1, now, m, straight});
   }
   since_still_ = SinceStill::kNone;
 }
@@ -428,6 +443,9 @@ void WheelRun::onMeasured(double now_s) {
     case Purpose::kSpin:
       if (spins_done_ < options_.extrinsics_spins) {
         startSpin();
+      } else if (options_.extrinsics_drive_m > 0 &&
+                 extrinsics_drives_done_ < options_.extrinsics_drives) {
+        startExtrinsicsDrive(now_s);
       } else {
         finishExtrinsics();
         startAlign(WheelRunStage::kLeave);
@@ -678,7 +696,8 @@ WheelDuties WheelRun::update(double now_s) {
         }
       } else if (now_s >= motion_end_s_) {
         stopMotion(now_s);
-        purpose_ = drive_sign_ > 0 ? Purpose::kAfterForward : Purpose::kAfterBack;
+        if (stage_ != WheelRunStage::kExtrinsics)
+          purpose_ = drive_sign_ > 0 ? Purpose::kAfterForward : Purpose::kAfterBack;
       }
       break;
     case Motion::kSettle:
@@ -700,7 +719,8 @@ double WheelRun::progress() const {
     case WheelRunStage::kIterate:
       return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);
     case WheelRunStage::kExtrinsics:
-      return 0.8 + 0.05 * spins_done_ / std::max(1, options_.extrinsics_spins);
+      return 0.8 + 0.05 * (spins_done_ + extrinsics_drives_done_) /
+                       std::max(1, options_.extrinsics_spins + options_.extrinsics_drives);
     case WheelRunStage::kLeave:
       return 0.9;
     default:

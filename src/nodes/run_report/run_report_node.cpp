@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/pose2d.h"
@@ -272,7 +273,14 @@ ReportFiles RunReportNode::write() {
                                 .string();
   const StageRecord* camera = record.stage("camera");
   const bool camera_done = camera && camera->state == StageState::kDone;
-  return writeReport(options_.report_dir, record, camera_done ? views : "", o);
+  // The ground view of the extrinsics this run's wheel stage wrote (not an older run's).
+  const StageRecord* wheels = record.stage("wheels");
+  const bool extrinsics_written =
+      wheels && wheels->state == StageState::kDone && wheels->figure("extrinsics_written") == 1.0;
+  const std::string ground = extrinsics::groundViewPath(
+      extrinsics::extrinsicsPath(options_.calibration_root, options_.veh));
+  return writeReport(options_.report_dir, record, camera_done ? views : "", o,
+                     extrinsics_written ? ground : "");
 }
 
 void RunReportNode::run() {

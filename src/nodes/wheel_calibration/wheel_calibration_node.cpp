@@ -4,10 +4,12 @@
 
 #include <cmath>
 #include <filesystem>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/io/image_file.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
@@ -96,6 +98,8 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   r.extrinsics_spins = 4;  // the node writes the camera's extrinsics by default
   p.get("extrinsics_spins", r.extrinsics_spins);
   p.get("extrinsics_spin_rad", r.extrinsics_spin_rad);
+  p.get("extrinsics_drive_m", r.extrinsics_drive_m);
+  p.get("extrinsics_drives", r.extrinsics_drives);
   o.validate();
   return o;
 }
@@ -223,6 +227,7 @@ void WheelCalibrationNode::run() {
       },
       [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
         run_->addFrame(stamp.toSec(), image);
+        if (run_->stage() == WheelRunStage::kExtrinsics) image.copyTo(ground_frame_);
         publishDetections(stamp);
       },
       &error_);
@@ -410,7 +415,7 @@ ros_layer::StatusPublisher::Figures WheelCalibrationNode::writeExtrinsics() {
   const extrinsics::CameraMount& m = x->mount;
   const Eigen::Matrix3d H = extrinsics::homographyFromMount(m, camera.rectified);
   writeFileAtomically(extrinsics_path_,
-                      extrinsics::extrinsicsYaml(H, m, nullptr,
+                      extrinsics::extrinsicsYaml(H, m, x->has_sigma ? &x->sigma : nullptr,
                                                  {{"plane_rms_m", x->plane_rms_m},
                                                   {"turn_centre_rms_m", x->centre_rms_m},
                                                   {"yaw_spread_rad", x->yaw_spread_rad},
@@ -420,6 +425,13 @@ ros_layer::StatusPublisher::Figures WheelCalibrationNode::writeExtrinsics() {
                                                  "the floor tags of the wheel stage (intrinsics " +
                                                      options_.intrinsics_file + ")",
                                                  odometry::utcNowIso8601()));
+  if (!ground_frame_.empty()) {
+    // For a person to check: the floor grid where the homography puts it, over the last still.
+    cv::Mat view = extrinsics::rectifyImage(ground_frame_, camera);
+    if (view.channels() == 1) cv::cvtColor(view, view, cv::COLOR_GRAY2BGR);
+    extrinsics::drawFloorGrid(view, H);
+    writePngAtomically(extrinsics::groundViewPath(extrinsics_path_), view);
+  }
   ROS_INFO(
       "wheel_calibration_node: wrote %s: camera %.1f mm high, pitch %.2f deg, roll %.2f deg, yaw "
       "%.2f deg, %.1f mm ahead of the axle, %.1f mm left (%d drives, %d turns)",
@@ -462,7 +474,11 @@ void WheelCalibrationNode::finish() {
       {"frames_dropped", static_cast<double>(frames_->dropped())},
       {"elapsed_s", run_->elapsedS()}};
   figures.insert(figures.end(), extrinsic_figures.begin(), extrinsic_figures.end());
-  status_.wrote("wheels/write", kinematics_path_, figures);
+  // The stage succeeds without the extrinsics; its DONE says why they are missing.
+  const std::string missing = options_.run.extrinsics_spins > 0 && !run_->extrinsicsResult()
+                                  ? "; no camera extrinsics: " + run_->extrinsicsFailure()
+                                  : "";
+  status_.done("wheels/write", "wrote " + kinematics_path_ + missing, figures, kinematics_path_);
 }
 
 }  // namespace wheels

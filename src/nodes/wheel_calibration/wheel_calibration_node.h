@@ -25,6 +25,7 @@
 
 #include <exception>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "autocal/extrinsics/extrinsics_file.h"
@@ -115,6 +116,8 @@ class WheelCalibrationNode {
   KinematicsParams before_;
   std::string kinematics_path_;
   std::string extrinsics_path_;
+  /// The last frame of the extrinsics' stills: the ground view drawn beside the extrinsics file.
+  cv::Mat ground_frame_;
   /// Both wheels' counts at one stamp, from the two encoders' messages: paired as they arrive they
   /// would depend on the order the messages came in, which a replay of the recording does not see
   /// again (the deadband fit of a replay differed from the live run's).

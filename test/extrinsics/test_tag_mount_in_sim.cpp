@@ -15,6 +15,7 @@
 #include "autocal/sim/floor_truth.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
+#include "support/camera_mounts.h"
 
 namespace {
 
@@ -24,23 +25,7 @@ const std::string kConfigDir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
 
 sim::RobotConfig mountNumber(int i) {
   sim::RobotConfig r = sim::loadRobotConfig(kConfigDir + "robot.yaml");
-  sim::CameraConfig& c = r.camera;
-  switch (i) {
-    case 0:
-      break;
-    case 1:
-      c.height_m = 0.095, c.pitch_rad = 0.33, c.roll_rad = 0.02, c.yaw_rad = 0.03, c.x_m = 0.065,
-      c.y_m = 0.008;
-      break;
-    case 2:
-      c.height_m = 0.118, c.pitch_rad = 0.21, c.roll_rad = -0.025, c.yaw_rad = -0.04, c.x_m = 0.048,
-      c.y_m = -0.012;
-      break;
-    default:
-      c.height_m = 0.105, c.pitch_rad = 0.28, c.roll_rad = 0.015, c.yaw_rad = -0.02, c.x_m = 0.06;
-      c.truth.fx *= 0.92;
-      c.truth.fy *= 0.92;
-  }
+  test::setCameraMount(r, i);
   return r;
 }
 
@@ -141,7 +126,7 @@ TEST_P(TagMountInSim, MountFromTagsWithinTheTargets) {
   EXPECT_LT(s.yaw_rad, 0.5 * deg / 3);
 }
 
-INSTANTIATE_TEST_SUITE_P(FourMounts, TagMountInSim, ::testing::Values(0, 1, 2, 3));
+INSTANTIATE_TEST_SUITE_P(FourMounts, TagMountInSim, ::testing::Range(0, test::kCameraMounts));
 
 TEST(TagMount, WithoutTurnsOrDrivesItSaysWhatIsMissing) {
   const Recorded rec = record(mountNumber(0));

@@ -91,10 +91,30 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   EXPECT_EQ(ground.cols, robot.camera.truth.width);
   EXPECT_EQ(ground.rows, robot.camera.truth.height);
 
+  // The report's believed path (the encoders, dead-reckoned) against the simulator's true path
+  // it draws beside it: the same length, and ends close (a robot's dead reckoning drifts, but
+  // not across the room).
+  const std::vector<double> believed =
+      summary.map("believed_path").required<std::vector<double>>("end");
+  const std::vector<double> truth = summary.map("true_path").required<std::vector<double>>("end");
+  ASSERT_EQ(believed.size(), 3u);
+  ASSERT_EQ(truth.size(), 3u);
+  const double believed_m = summary.map("believed_path").required<double>("length_m");
+  const double true_m = summary.map("true_path").required<double>("length_m");
+  const double apart_m = std::hypot(believed[0] - truth[0], believed[1] - truth[1]);
+  const double off_m = summary.map("true_path").required<double>("believed_off_m");
+  std::cout << "believed path " << believed_m << " m, true " << true_m << " m; the ends " << apart_m
+            << " m apart, at most " << off_m << " m apart on the way" << std::endl;
+  EXPECT_NEAR(believed_m, true_m, 0.05 * true_m);
+  EXPECT_LE(apart_m, 0.05 * true_m);
+
   if (!testParam<bool>("odometry")) {
     EXPECT_FALSE(stages.has("odometry"));
     return;
   }
+  // With the odometry stage's wheels the believed path follows the true one all the way (with one
+  // nominal radius, wheels of different diameters bend each straight drive: over a metre off here).
+  EXPECT_LE(off_m, 0.02 * true_m);
   // Odometry (UAH): Ed = r_R/r_L, the wheelbase, each wheel's distance per pulse.
   YamlMap odo = YamlMap::loadFile(stages.map("odometry").required<std::string>("file"));
   EXPECT_EQ(odo.required<std::string>("method"), "uah");

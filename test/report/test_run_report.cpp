@@ -317,6 +317,23 @@ TEST(Report, WritesTheSheetAndTheSummary) {
   fs::remove_all(dir);
 }
 
+TEST(TruePath, InTheBelievedPathsFrameFromTheFirstEncoderReading) {
+  RunRecorder r("bot", {"wheels"});
+  // The simulator's robot at (1, 2) facing +y, then driving 1 m along +y (its forward).
+  r.addTruePose(0.0, {1.0, 2.0, M_PI / 2});
+  r.addTruePose(0.5, {1.0, 2.0, M_PI / 2});
+  for (int i = 1; i <= 10; ++i) r.addTruePose(1.0 + 0.1 * i, {1.0, 2.0 + 0.1 * i, M_PI / 2});
+  r.addTruePose(2.02, {5.0, 5.0, 0.0});       // within min_interval_s of the last: dropped
+  EXPECT_TRUE(truePath(r.record()).empty());  // no encoder reading yet: no start
+  r.addEncoders(0.5, 0, 0, 135);
+  const std::vector<PathPoint> path = truePath(r.record());
+  ASSERT_EQ(path.size(), 11u);
+  EXPECT_DOUBLE_EQ(path.front().t_s, 0.5);
+  EXPECT_NEAR(path.back().pose.x_m, 1.0, 1e-12);  // forward
+  EXPECT_NEAR(path.back().pose.y_m, 0.0, 1e-12);
+  EXPECT_NEAR(path.back().pose.yaw_rad, 0.0, 1e-12);
+}
+
 TEST(Report, ShowsTheGroundViewOfTheExtrinsicsWhenGiven) {
   const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report_ground";
   fs::remove_all(dir);

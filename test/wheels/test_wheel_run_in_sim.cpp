@@ -15,6 +15,7 @@
 #include "autocal/sim/config.h"
 #include "autocal/sim/floor_truth.h"
 #include "autocal/wheels/wheel_replay.h"
+#include "support/camera_mounts.h"
 #include "support/wheels_in_sim.h"
 
 using namespace autocal;
@@ -232,21 +233,7 @@ class WheelRunMountInSim : public ::testing::TestWithParam<int> {};
 
 TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   sim::RobotConfig robot = robotConfig("robot.yaml");
-  sim::CameraConfig& c = robot.camera;
-  switch (GetParam()) {
-    case 0:
-      break;
-    case 1:
-      c.height_m = 0.098, c.pitch_rad = 0.3, c.roll_rad = -0.02, c.yaw_rad = 0.03, c.y_m = 0.01;
-      break;
-    case 2:
-      c.height_m = 0.118, c.pitch_rad = 0.21, c.roll_rad = -0.025, c.yaw_rad = -0.04, c.x_m = 0.048,
-      c.y_m = -0.012;
-      break;
-    default:
-      c.height_m = 0.095, c.pitch_rad = 0.33, c.roll_rad = 0.02, c.yaw_rad = 0.03, c.x_m = 0.065,
-      c.y_m = 0.008;
-  }
+  test::setCameraMount(robot, GetParam());
   wheels::WheelRunOptions o = optionsFor(robot, robot.deadband + 0.007);
   o.extrinsics_spins = 4;
   wheels::WheelRun run(o, robot.camera.truth);
@@ -282,7 +269,7 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   EXPECT_LE(test::straightDriftM(robot, r.result, 0.25), 0.02);
 }
 
-INSTANTIATE_TEST_SUITE_P(FourMounts, WheelRunMountInSim, ::testing::Values(0, 1, 2, 3));
+INSTANTIATE_TEST_SUITE_P(FourMounts, WheelRunMountInSim, ::testing::Range(0, test::kCameraMounts));
 
 TEST(WheelRunDeadbandGuesses, MinimaWithinTheProbeStepAreAveragedOthersKept) {
   const wheels::DeadbandGuesses a = wheels::deadbandGuesses(0.10, 0.11, 0.01);

@@ -70,6 +70,8 @@ struct RunRecord {
   std::vector<StageRecord> stages;  ///< in run order
   std::vector<WheelIteration> wheel_iterations;
   std::vector<EncoderSample> encoders;
+  /// The simulator's true poses (its world frame), when one published them; empty on a robot.
+  std::vector<std::pair<double, Pose2D>> true_poses;
   int ticks_per_revolution = 0;
   /// Set by RunRecorder::markStageDead and markInterrupted: why the run ended without its stages'
   /// DONE or FAILED.
@@ -97,6 +99,9 @@ class RunRecorder {
   /// the other wheel's count at the same instant (EncoderPairer) before it is kept.
   void addEncoderReading(int side, double stamp_s, std::int32_t ticks, int ticks_per_revolution,
                          double min_interval_s = 0.05);
+  /// The simulator's true pose at `stamp_s`, kept at most every `min_interval_s`: the report draws
+  /// the true path beside the believed one. Never given to a stage.
+  void addTruePose(double stamp_s, const Pose2D& pose, double min_interval_s = 0.05);
   /// The node of `stage` went away while the stage was running (no DONE or FAILED): the stage
   /// fails with `why`.
   void markStageDead(const std::string& stage, const std::string& why);
@@ -142,6 +147,10 @@ struct PathPoint {
 };
 std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
                                     double baseline_m);
+/// The simulator's true path in the believed path's frame (x forward, y left at the true pose of
+/// the first encoder sample, or the first true pose when that came later); empty without true
+/// poses or encoder readings.
+std::vector<PathPoint> truePath(const RunRecord& record);
 
 /// One view of the camera stage's audit (camera_intrinsic/<veh>_views/views.yaml).
 struct AuditView {
@@ -164,6 +173,7 @@ double cornerCoverage(const ViewsAudit& audit, int cols = 8, int rows = 6);
 struct ReportOptions {
   double wheel_radius_m = 0.0318;  ///< for the believed path (the kinematics file's, when written)
   double baseline_m = 0.1;
+
   /// Gates the report adds to the stages' own: the camera's RMS reprojection error and its corner
   /// coverage of the image.
   /// (The simulator's default world, boards at one height around the robot, gives about 46 %.)
@@ -176,6 +186,12 @@ struct Gate {
   bool passed = false;
   std::string detail;
 };
+/// The believed path with the wheels the run knows best: the odometry stage's per-wheel distances
+/// per pulse and wheelbase when it is DONE (its figures left_m_per_pulse, right_m_per_pulse,
+/// wheelbase_m), else one radius and baseline from the options. With one radius, wheels of
+/// different diameters (Ed ≠ 1) bend every straight drive of the path.
+std::vector<PathPoint> believedPath(const RunRecord& record, const ReportOptions& options);
+
 /// Each stage's DONE, and the report's own gates on the figures.
 std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
                                 const ReportOptions& options);

@@ -137,8 +137,19 @@ void drawCoverage(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
   }
 }
 
-void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path) {
-  text(sheet, "Wheel stage: the path the encoders give (believed; start at the circle)",
+double pathLength(const std::vector<PathPoint>& path) {
+  double length = 0;
+  for (size_t i = 1; i < path.size(); ++i)
+    length += std::hypot(path[i].pose.x_m - path[i - 1].pose.x_m,
+                         path[i].pose.y_m - path[i - 1].pose.y_m);
+  return length;
+}
+
+void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path,
+              const std::vector<PathPoint>& truth) {
+  text(sheet,
+       truth.empty() ? "The path the encoders give (believed; start at the circle)"
+                     : "The path the encoders give (blue) and the true one (grey; simulator)",
        {area.x, area.y - 8}, 0.55);
   cv::rectangle(sheet, area, kGrey);
   if (path.size() < 2) {
@@ -146,15 +157,21 @@ void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path)
     return;
   }
   double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
-  for (const PathPoint& p : path) {
-    x0 = std::min(x0, p.pose.x_m), x1 = std::max(x1, p.pose.x_m);
-    y0 = std::min(y0, p.pose.y_m), y1 = std::max(y1, p.pose.y_m);
+  for (const auto* points : {&path, &truth}) {
+    for (const PathPoint& p : *points) {
+      x0 = std::min(x0, p.pose.x_m), x1 = std::max(x1, p.pose.x_m);
+      y0 = std::min(y0, p.pose.y_m), y1 = std::max(y1, p.pose.y_m);
+    }
   }
   // Equal scales, a margin of 10 %, at least 0.5 m across.
   const double span = std::max({x1 - x0, (y1 - y0) * area.width / area.height, 0.5}) * 1.1;
   const double cx = 0.5 * (x0 + x1), cy = 0.5 * (y0 + y1);
   const double span_y = span * area.height / area.width;
   const Plot plot{area, cx - span / 2, cx + span / 2, cy - span_y / 2, cy + span_y / 2};
+  for (size_t i = 1; i < truth.size(); ++i) {
+    cv::line(sheet, plot.map(truth[i - 1].pose.x_m, truth[i - 1].pose.y_m),
+             plot.map(truth[i].pose.x_m, truth[i].pose.y_m), kGrey, 3, cv::LINE_AA);
+  }
   for (size_t i = 1; i < path.size(); ++i) {
     cv::line(sheet, plot.map(path[i - 1].pose.x_m, path[i - 1].pose.y_m),
              plot.map(path[i].pose.x_m, path[i].pose.y_m), kBlue, 1, cv::LINE_AA);
@@ -324,6 +341,12 @@ void RunRecorder::addEncoderReading(int side, double stamp_s, std::int32_t ticks
     addEncoders(p.stamp_s, p.left_ticks, p.right_ticks, ticks_per_revolution, min_interval_s);
 }
 
+void RunRecorder::addTruePose(double stamp_s, const Pose2D& pose, double min_interval_s) {
+  auto& poses = record_.true_poses;
+  if (!poses.empty() && stamp_s - poses.back().first < min_interval_s) return;
+  poses.emplace_back(stamp_s, pose);
+}
+
 void RunRecorder::markStageDead(const std::string& stage, const std::string& why) {
   StageRecord* s = find(stage);
   if (!s || s->state == StageState::kDone || s->state == StageState::kFailed) return;
@@ -397,18 +420,61 @@ StageHealth stageHealth(const StageRecord& stage, bool current, double silent_s,
   return h;
 }
 
-std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
-                                    double baseline_m) {
+namespace {
+
+std::vector<PathPoint> deadReckoned(const RunRecord& record,
+                                    const odometry::DiffDriveParams& wheels) {
   std::vector<PathPoint> path;
-  if (record.encoders.empty() || record.ticks_per_revolution <= 0) return path;
-  odometry::DeadReckoning odometry(odometry::DiffDriveParams::fromWheel(
-                                       2 * wheel_radius_m, record.ticks_per_revolution, baseline_m),
-                                   odometry::Integrator::kRungeKutta2);
+  if (record.encoders.empty()) return path;
+  odometry::DeadReckoning odometry(wheels, odometry::Integrator::kRungeKutta2);
   path.push_back({record.encoders.front().stamp_s, odometry.pose()});
   for (size_t i = 1; i < record.encoders.size(); ++i) {
     const EncoderSample &a = record.encoders[i - 1], &b = record.encoders[i];
     odometry.addPulses(b.left - a.left, b.right - a.right);
     path.push_back({b.stamp_s, odometry.pose()});
+  }
+  return path;
+}
+
+}  // namespace
+
+std::vector<PathPoint> believedPath(const RunRecord& record, double wheel_radius_m,
+                                    double baseline_m) {
+  if (record.ticks_per_revolution <= 0) return {};
+  return deadReckoned(record, odometry::DiffDriveParams::fromWheel(
+                                  2 * wheel_radius_m, record.ticks_per_revolution, baseline_m));
+}
+
+std::vector<PathPoint> believedPath(const RunRecord& record, const ReportOptions& options) {
+  const StageRecord* odometry = record.stage("odometry");
+  if (odometry && odometry->state == StageState::kDone) {
+    const odometry::DiffDriveParams wheels{odometry->figure("left_m_per_pulse"),
+                                           odometry->figure("right_m_per_pulse"),
+                                           odometry->figure("wheelbase_m")};
+    if (wheels.left_m_per_pulse > 0 && wheels.right_m_per_pulse > 0 && wheels.wheelbase_m > 0)
+      return deadReckoned(record, wheels);  // NaN figures fail the comparisons
+  }
+  return believedPath(record, options.wheel_radius_m, options.baseline_m);
+}
+
+std::vector<PathPoint> truePath(const RunRecord& record) {
+  std::vector<PathPoint> path;
+  if (record.true_poses.empty() || record.encoders.empty()) return path;
+  // The true pose when the believed path starts: the last one at or before its first reading.
+  const double start_s = record.encoders.front().stamp_s;
+  Pose2D origin = record.true_poses.front().second;
+  for (const auto& [t, pose] : record.true_poses) {
+    if (t > start_s) break;
+    origin = pose;
+  }
+  const double c = std::cos(origin.yaw_rad), s = std::sin(origin.yaw_rad);
+  path.push_back({start_s, Pose2D()});
+  for (const auto& [t, pose] : record.true_poses) {
+    if (t <= start_s) continue;
+    const double dx = pose.x_m - origin.x_m, dy = pose.y_m - origin.y_m;
+    path.push_back({t,
+                    {c * dx + s * dy, -s * dx + c * dy,
+                     std::remainder(pose.yaw_rad - origin.yaw_rad, 2 * M_PI)}});
   }
   return path;
 }
@@ -490,8 +556,7 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   drawMosaic(sheet, cv::Rect(20, 95, 660, 540), audit);
   drawGroundView(sheet, cv::Rect(700, 95, 310, 300), ground_view);
   drawCoverage(sheet, cv::Rect(1030, 95, 550, 413), audit);
-  drawPath(sheet, cv::Rect(20, 680, 620, 330),
-           believedPath(record, options.wheel_radius_m, options.baseline_m));
+  drawPath(sheet, cv::Rect(20, 680, 620, 330), believedPath(record, options), truePath(record));
   drawIterations(sheet, cv::Rect(670, 680, 500, 330), record.wheel_iterations);
 
   // The stages' figures and the gates.
@@ -559,16 +624,28 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
     o << "  - {drive: " << it.iteration << ", k: " << num(it.k, 8) << ", trim: " << num(it.trim)
       << ", dtheta_rad: " << num(it.dtheta_rad) << "}\n";
   }
-  const std::vector<PathPoint> path =
-      believedPath(record, options.wheel_radius_m, options.baseline_m);
-  double length = 0;
-  for (size_t i = 1; i < path.size(); ++i)
-    length += std::hypot(path[i].pose.x_m - path[i - 1].pose.x_m,
-                         path[i].pose.y_m - path[i - 1].pose.y_m);
+  const std::vector<PathPoint> path = believedPath(record, options);
+  const double length = pathLength(path);
   o << "believed_path: {length_m: " << num(length, 4) << ", end: ["
     << (path.empty() ? ".nan" : num(path.back().pose.x_m, 4)) << ", "
     << (path.empty() ? ".nan" : num(path.back().pose.y_m, 4)) << ", "
     << (path.empty() ? ".nan" : num(path.back().pose.yaw_rad, 4)) << "]}\n";
+  const std::vector<PathPoint> truth = truePath(record);
+  if (!truth.empty()) {
+    // How far the believed path strays from the truth: the largest distance between the two at
+    // the same instant (the true pose at or just before each believed one).
+    double off = 0;
+    size_t j = 0;
+    for (const PathPoint& p : path) {
+      while (j + 1 < truth.size() && truth[j + 1].t_s <= p.t_s) ++j;
+      off =
+          std::max(off, std::hypot(p.pose.x_m - truth[j].pose.x_m, p.pose.y_m - truth[j].pose.y_m));
+    }
+    o << "true_path: {length_m: " << num(pathLength(truth), 4)
+      << ", believed_off_m: " << num(off, 4) << ", end: [" << num(truth.back().pose.x_m, 4) << ", "
+      << num(truth.back().pose.y_m, 4) << ", " << num(truth.back().pose.yaw_rad, 4)
+      << "]}  # the simulator's, in the believed path's frame\n";
+  }
   const std::vector<Gate> gates = evaluateGates(record, audit, options);
   o << "gates_passed: "
     << (std::all_of(gates.begin(), gates.end(), [](const Gate& g) { return g.passed; }) ? "true"

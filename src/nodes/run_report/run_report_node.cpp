@@ -1,5 +1,6 @@
 #include "run_report_node.h"
 
+#include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 
 #include <filesystem>
@@ -82,6 +83,11 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
       nh_, [](const ros::Time&, int, int, int) {}, &error_,
       [this](int side, const ros::Time& stamp, std::int32_t ticks, int tpr) {
         recorder_->addEncoderReading(side, stamp.toSec(), ticks, tpr);
+      });
+  // The simulator's true pose, drawn beside the believed path (no stage ever reads it).
+  true_pose_sub_ = nh_.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 50, [this](const nav_msgs::Odometry::ConstPtr& m) {
+        recorder_->addTruePose(m->header.stamp.toSec(), ros_layer::fromPoseMsg(m->pose.pose));
       });
   believed_path_pub_ = nh_.advertise<nav_msgs::Path>("calibration/believed_path", 1);
 
@@ -181,7 +187,7 @@ void RunReportNode::publishBelievedPath() {
   msg.header.frame_id = options_.odom_frame;
   msg.header.stamp = ros::Time::now();
   const ReportOptions& o = options_.report;
-  for (const PathPoint& p : believedPath(recorder_->record(), o.wheel_radius_m, o.baseline_m)) {
+  for (const PathPoint& p : believedPath(recorder_->record(), o)) {
     geometry_msgs::PoseStamped pose;
     pose.header.frame_id = options_.odom_frame;
     pose.header.stamp = ros_layer::toRosTime(p.t_s);

@@ -85,6 +85,8 @@ class RunReportNode {
   ros_layer::StatusPublisher status_;
   ros::Subscriber status_sub_;
   ros::Subscriber sim_status_sub_;  ///< a simulator's own status (sim/status), when one runs
+  /// A simulator's true pose (sim/ground_truth), for the report's true path; silent on a robot.
+  ros::Subscriber true_pose_sub_;
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   std::exception_ptr error_;
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it

@@ -73,23 +73,38 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   // Extrinsics: the wheel stage's camera mount as a ground homography for the camera stage's P;
   // each floor point's true pixel rectified with the calibrated camera and projected.
   const fs::path extrinsic = root / "camera_extrinsic" / (veh + ".yaml");
-  EXPECT_EQ(stages.map("wheels").required<std::string>("text").find("no camera extrinsics"),
-            std::string::npos)
-      << stages.map("wheels").required<std::string>("text");
-  ASSERT_TRUE(fs::exists(extrinsic)) << extrinsic;
-  const autocal::sim::FloorError floor = autocal::sim::floorErrorThroughCalibration(
-      robot,
-      autocal::extrinsics::loadRectification(stages.map("camera").required<std::string>("file")),
-      autocal::extrinsics::readHomography(extrinsic.string()));
-  std::cout << "ground projection: " << 1e3 * floor.rms_m << " mm RMS, " << 1e3 * floor.max_m
-            << " mm worst over " << floor.points << " floor points" << std::endl;
-  EXPECT_LE(floor.rms_m, 0.01);
-  EXPECT_LE(floor.max_m, 0.02);
-  // The ground view beside it (the report shows it): the rectified frame with the grid.
-  const cv::Mat ground =
-      cv::imread(autocal::extrinsics::groundViewPath(extrinsic.string()), cv::IMREAD_COLOR);
-  EXPECT_EQ(ground.cols, robot.camera.truth.width);
-  EXPECT_EQ(ground.rows, robot.camera.truth.height);
+  // In robot mode (lost frames, late messages) the stage may not determine the mount: it then
+  // says why in its DONE text and writes no file, which ~extrinsics_required false accepts.
+  const std::string wheels_text = stages.map("wheels").required<std::string>("text");
+  if (!fs::exists(extrinsic) && !testParam<bool>("extrinsics_required")) {
+    std::cout << "no camera extrinsics written (accepted: ~extrinsics_required false): "
+              << wheels_text << std::endl;
+    EXPECT_NE(wheels_text.find("no camera extrinsics: "), std::string::npos) << wheels_text;
+  } else {
+    EXPECT_EQ(wheels_text.find("no camera extrinsics"), std::string::npos) << wheels_text;
+    ASSERT_TRUE(fs::exists(extrinsic)) << extrinsic;
+    const autocal::sim::FloorError floor = autocal::sim::floorErrorThroughCalibration(
+        robot,
+        autocal::extrinsics::loadRectification(stages.map("camera").required<std::string>("file")),
+        autocal::extrinsics::readHomography(extrinsic.string()));
+    std::cout << "ground projection: " << 1e3 * floor.rms_m << " mm RMS, " << 1e3 * floor.max_m
+              << " mm worst over " << floor.points << " floor points" << std::endl;
+    EXPECT_LE(floor.rms_m, 0.01);
+    EXPECT_LE(floor.max_m, 0.02);
+    // The pose it comes from, against the simulator's true mount.
+    YamlMap pose = YamlMap::loadFile(extrinsic.string()).map("camera_pose");
+    const autocal::sim::CameraConfig& mount = robot.camera;
+    const double deg = M_PI / 180;
+    EXPECT_NEAR(pose.required<double>("height_m"), mount.height_m, 0.002);
+    EXPECT_NEAR(pose.required<double>("pitch_rad"), mount.pitch_rad, 0.3 * deg);
+    EXPECT_NEAR(pose.required<double>("roll_rad"), mount.roll_rad, 0.3 * deg);
+    EXPECT_NEAR(pose.required<double>("yaw_rad"), mount.yaw_rad, 0.5 * deg);
+    // The ground view beside it (the report shows it): the rectified frame with the grid.
+    const cv::Mat ground =
+        cv::imread(autocal::extrinsics::groundViewPath(extrinsic.string()), cv::IMREAD_COLOR);
+    EXPECT_EQ(ground.cols, robot.camera.truth.width);
+    EXPECT_EQ(ground.rows, robot.camera.truth.height);
+  }
 
   // The report's believed path (the encoders, dead-reckoned) against the simulator's true path
   // it draws beside it: the same length, and ends close (a robot's dead reckoning drifts, but

@@ -60,6 +60,7 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("resume", options_.resume);
   p.get("silent_warn_s", options_.silent_warn_s);
   p.get("path_rate_hz", options_.path_rate_hz);
+  p.get("true_pose_topic", options_.true_pose_topic);
   options_.odom_frame = options_.veh + "/odom";
   p.get("odom_frame", options_.odom_frame);
   options_.validate();
@@ -84,11 +85,14 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
       [this](int side, const ros::Time& stamp, std::int32_t ticks, int tpr) {
         recorder_->addEncoderReading(side, stamp.toSec(), ticks, tpr);
       });
-  // The simulator's true pose, drawn beside the believed path (no stage ever reads it).
-  true_pose_sub_ = nh_.subscribe<nav_msgs::Odometry>(
-      "sim/ground_truth", 50, [this](const nav_msgs::Odometry::ConstPtr& m) {
-        recorder_->addTruePose(m->header.stamp.toSec(), ros_layer::fromPoseMsg(m->pose.pose));
-      });
+  // A reference pose (the simulator's true one, wired by its launch file), drawn beside the
+  // believed path as the true path; no stage ever sees it. None on a robot.
+  if (!options_.true_pose_topic.empty()) {
+    true_pose_sub_ = nh_.subscribe<nav_msgs::Odometry>(
+        options_.true_pose_topic, 50, [this](const nav_msgs::Odometry::ConstPtr& m) {
+          recorder_->addTruePose(m->header.stamp.toSec(), ros_layer::fromPoseMsg(m->pose.pose));
+        });
+  }
   believed_path_pub_ = nh_.advertise<nav_msgs::Path>("calibration/believed_path", 1);
 
   // /diagnostics: one status per stage and one for the run, published

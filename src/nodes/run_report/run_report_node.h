@@ -56,6 +56,9 @@ struct RunReportNodeOptions {
   double silent_warn_s = 10.0;
   /// calibration/believed_path is republished at most this often [Hz, wall clock].
   double path_rate_hz = 2.0;
+  /// nav_msgs/Odometry of the robot's true pose (a simulator's), drawn as the true path; empty:
+  /// none.
+  std::string true_pose_topic;
   /// The believed path's frame: where the robot started (default "<veh>/odom").
   std::string odom_frame;
   /// Throws ConfigError naming the first bad key.
@@ -85,8 +88,7 @@ class RunReportNode {
   ros_layer::StatusPublisher status_;
   ros::Subscriber status_sub_;
   ros::Subscriber sim_status_sub_;  ///< a simulator's own status (sim/status), when one runs
-  /// A simulator's true pose (sim/ground_truth), for the report's true path; silent on a robot.
-  ros::Subscriber true_pose_sub_;
+  ros::Subscriber true_pose_sub_;  ///< ~true_pose_topic, when given
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   std::exception_ptr error_;
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it

@@ -59,6 +59,7 @@ struct TagMountResult {
   CameraMount mount;
   double plane_rms_m = 0;     ///< the tags' corners off the fitted floor plane
   int corners = 0;            ///< in the plane fit
+  int rejected = 0;           ///< tag sightings left out: far off the plane the others make
   int straight = 0;           ///< straight drives used for the yaw
   int spins = 0;              ///< turns used for the offsets
   double yaw_spread_rad = 0;  ///< standard deviation of the drives' yaws

@@ -3,6 +3,8 @@
 #include "autocal/extrinsics/tag_mount.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <string>
@@ -67,19 +69,36 @@ ViewMotion viewMotion(const std::map<int, LevelTag>& before, const std::map<int,
   return m;
 }
 
-/// The mount from every still and motion (the estimate mountFromTags reports).
-TagMountResult solveMount(const std::vector<TagStill>& stills, const std::vector<StillPair>& pairs,
-                          const TagMountOptions& options) {
-  TagMountResult out;
-  // The floor: one plane through every tag corner of every still.
+/// The corners of a tag sighting in the camera's frame.
+std::array<Eigen::Vector3d, 4> cornersOf(const TagSeen& t) {
+  const double h = 0.5 * t.size_m;
+  std::array<Eigen::Vector3d, 4> out;
+  const Eigen::Vector2d local[4] = {{-h, -h}, {h, -h}, {h, h}, {-h, h}};
+  for (int k = 0; k < 4; ++k)
+    out[k] = t.rotation * Eigen::Vector3d(local[k].x(), local[k].y(), 0) + t.translation_m;
+  return out;
+}
+
+/// The floor: one plane through every corner of every sighting; `up` its normal towards the
+/// camera, the camera `height_m` above it.
+struct FloorPlane {
+  Eigen::Vector3d up = Eigen::Vector3d::UnitY();
+  double height_m = 0;
+  int corners = 0;
+  double rms_m = 0;
+  /// A sighting's corners' RMS distance from the plane.
+  double offPlane(const TagSeen& t) const {
+    double sq = 0;
+    for (const Eigen::Vector3d& c : cornersOf(t)) sq += std::pow(up.dot(c) + height_m, 2);
+    return std::sqrt(sq / 4);
+  }
+};
+
+FloorPlane fitFloor(const std::vector<TagStill>& stills) {
   std::vector<Eigen::Vector3d> corners;
   for (const TagStill& still : stills) {
     for (const TagSeen& t : still.tags) {
-      const double h = 0.5 * t.size_m;
-      for (const Eigen::Vector2d& c : {Eigen::Vector2d(-h, -h), Eigen::Vector2d(h, -h),
-                                       Eigen::Vector2d(h, h), Eigen::Vector2d(-h, h)}) {
-        corners.push_back(t.rotation * Eigen::Vector3d(c.x(), c.y(), 0) + t.translation_m);
-      }
+      for (const Eigen::Vector3d& c : cornersOf(t)) corners.push_back(c);
     }
   }
   if (corners.size() < 12) {
@@ -92,14 +111,44 @@ TagMountResult solveMount(const std::vector<TagStill>& stills, const std::vector
   Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
   for (const auto& p : corners) scatter += (p - centroid) * (p - centroid).transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
-  Eigen::Vector3d up = eig.eigenvectors().col(0);  // the smallest spread: the plane's normal
-  if (up.dot(centroid) > 0) up = -up;              // towards the camera, which is above the floor
-  CameraMount& m = out.mount;
-  m.height_m = -up.dot(centroid);
+  FloorPlane f;
+  f.up = eig.eigenvectors().col(0);          // the smallest spread: the plane's normal
+  if (f.up.dot(centroid) > 0) f.up = -f.up;  // towards the camera, which is above the floor
+  f.height_m = -f.up.dot(centroid);
   double sq = 0;
-  for (const auto& p : corners) sq += std::pow(up.dot(p) + m.height_m, 2);
-  out.corners = static_cast<int>(corners.size());
-  out.plane_rms_m = std::sqrt(sq / static_cast<double>(corners.size()));
+  for (const auto& p : corners) sq += std::pow(f.up.dot(p) + f.height_m, 2);
+  f.corners = static_cast<int>(corners.size());
+  f.rms_m = std::sqrt(sq / static_cast<double>(corners.size()));
+  return f;
+}
+
+/// The mount from every still and motion (the estimate mountFromTags reports).
+TagMountResult solveMount(const std::vector<TagStill>& all_stills,
+                          const std::vector<StillPair>& pairs, const TagMountOptions& options) {
+  TagMountResult out;
+  FloorPlane floor = fitFloor(all_stills);
+  // A sighting far off the plane the others make (a tag pose PnP got wrong, a tag not on the
+  // floor) is left out of the plane and of the tags' places: more than five times the median
+  // sighting's distance, and more than a millimetre.
+  std::vector<double> off;
+  for (const TagStill& still : all_stills)
+    for (const TagSeen& t : still.tags) off.push_back(floor.offPlane(t));
+  std::nth_element(off.begin(), off.begin() + static_cast<long>(off.size() / 2), off.end());
+  const double limit = std::max(5 * off[off.size() / 2], 0.001);
+  std::vector<TagStill> stills = all_stills;
+  for (TagStill& still : stills) {
+    const size_t before = still.tags.size();
+    still.tags.erase(std::remove_if(still.tags.begin(), still.tags.end(),
+                                    [&](const TagSeen& t) { return floor.offPlane(t) > limit; }),
+                     still.tags.end());
+    out.rejected += static_cast<int>(before - still.tags.size());
+  }
+  if (out.rejected > 0) floor = fitFloor(stills);
+  const Eigen::Vector3d& up = floor.up;
+  CameraMount& m = out.mount;
+  m.height_m = floor.height_m;
+  out.corners = floor.corners;
+  out.plane_rms_m = floor.rms_m;
   // up = (−cos p·sin r, −cos p·cos r, −sin p) in the camera (ground_projection.h's rotation).
   m.pitch_rad = std::asin(std::clamp(-up.z(), -1.0, 1.0));
   m.roll_rad = std::atan2(-up.x(), -up.y());

@@ -414,17 +414,19 @@ ros_layer::StatusPublisher::Figures WheelCalibrationNode::writeExtrinsics() {
       extrinsics::loadRectification(options_.intrinsics_file);
   const extrinsics::CameraMount& m = x->mount;
   const Eigen::Matrix3d H = extrinsics::homographyFromMount(m, camera.rectified);
-  writeFileAtomically(extrinsics_path_,
-                      extrinsics::extrinsicsYaml(H, m, x->has_sigma ? &x->sigma : nullptr,
-                                                 {{"plane_rms_m", x->plane_rms_m},
-                                                  {"turn_centre_rms_m", x->centre_rms_m},
-                                                  {"yaw_spread_rad", x->yaw_spread_rad},
-                                                  {"drives", static_cast<double>(x->straight)},
-                                                  {"turns", static_cast<double>(x->spins)}},
-                                                 camera.rectified,
-                                                 "the floor tags of the wheel stage (intrinsics " +
-                                                     options_.intrinsics_file + ")",
-                                                 odometry::utcNowIso8601()));
+  writeFileAtomically(
+      extrinsics_path_,
+      extrinsics::extrinsicsYaml(
+          H, m, x->has_sigma ? &x->sigma : nullptr,
+          {{"plane_rms_m", x->plane_rms_m},
+           {"rejected_sightings", static_cast<double>(x->rejected)},
+           {"turn_centre_rms_m", x->centre_rms_m},
+           {"yaw_spread_rad", x->yaw_spread_rad},
+           {"drives", static_cast<double>(x->straight)},
+           {"turns", static_cast<double>(x->spins)}},
+          camera.rectified,
+          "the floor tags of the wheel stage (intrinsics " + options_.intrinsics_file + ")",
+          odometry::utcNowIso8601()));
   if (!ground_frame_.empty()) {
     // For a person to check: the floor grid where the homography puts it, over the last still.
     cv::Mat view = extrinsics::rectifyImage(ground_frame_, camera);

@@ -43,12 +43,14 @@ build: deps
 	@# catkin caches the devel space's environment at configure time (catkin_generated/setup_cached.sh,
 	@# which the tests run under) and only lists folders that exist then: without this one, a fresh
 	@# clone's tests would run Python nodes with no path to this package's messages.
-	mkdir -p $(CURDIR)/devel/lib/python3/dist-packages
+	@if [ -L $(BUILD_DIR)/devel ]; then rm $(BUILD_DIR)/devel; fi
+	mkdir -p $(CURDIR)/$(BUILD_DIR)/devel/lib/python3/dist-packages
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
-	  -DCATKIN_ENABLE_TESTING=ON -DCATKIN_DEVEL_PREFIX=$(CURDIR)/devel
-	@# rosrun ignores executables under <package>/build/, so the devel space lives in ./devel;
-	@# build/devel is a link to it, and build/devel/setup.bash is the script to source.
-	ln -sfn $(CURDIR)/devel $(BUILD_DIR)/devel
+	  -DCATKIN_ENABLE_TESTING=ON -DCATKIN_DEVEL_PREFIX=$(CURDIR)/$(BUILD_DIR)/devel
+	@# rosrun and its tab completion skip everything under <package>/build/: ./bin, a link to the
+	@# devel space's executables, is where they find the nodes and commands (and nothing else of
+	@# the devel space: the tests' and benchmarks' binaries stay in build/test_bin and build/bench).
+	ln -sfn $(BUILD_DIR)/devel/lib/autocal $(CURDIR)/bin
 	cmake --build $(BUILD_DIR) -- -j$(JOBS)
 	cmake --build $(BUILD_DIR) --target tests -- -j$(JOBS)
 
@@ -61,11 +63,11 @@ test: build
 
 demo: build
 	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
-	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home scripts/demo.sh
+	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home bash scripts/demo.sh
 
 bench: build
 	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
-	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home scripts/bench.sh
+	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home bash scripts/bench.sh
 
 clean:
-	rm -rf $(BUILD_DIR) devel
+	rm -rf $(BUILD_DIR) devel bin

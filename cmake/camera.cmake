@@ -47,7 +47,7 @@ add_executable(bench_camera_detection test/camera/bench_camera_detection.cpp)
 target_link_libraries(bench_camera_detection autocal_core autocal_sim_core)
 target_compile_definitions(bench_camera_detection PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 target_compile_options(bench_camera_detection PRIVATE ${AUTOCAL_WARNINGS})
-set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
+set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 
 if(CATKIN_ENABLE_TESTING)
   # The calibration core on the simulator's rendered frames, against the simulator's true lens.

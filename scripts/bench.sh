@@ -19,7 +19,7 @@ kept() {
 ran=" "
 part() {
   echo "bench: $1" >&2
-  "$1"
+  bash "$1"
   echo
   ran="$ran$1 "
 }

@@ -8,11 +8,11 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 data=/usr/share/doc/opencv-doc/examples/data
 photos="$data/left[0-9]*.jpg"
-bin=devel/lib/autocal
+bin=build/devel/lib/autocal
 runs=${CAMERA_BENCH_RUNS:-5}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-for f in "$bin/calibrate_camera" "$bin/bench_camera_detection"; do
+for f in "$bin/calibrate_camera" build/bench/bench_camera_detection; do
   [ -x "$f" ] || { echo "camera bench: $f missing (make build)" >&2; exit 1; }
 done
 
@@ -79,7 +79,7 @@ PY
 )"
 
 echo "camera bench: detection speed" >&2
-"$bin/bench_camera_detection" "$data" 10 > "$tmp/det.txt"
+build/bench/bench_camera_detection "$data" 10 > "$tmp/det.txt"
 det() { awk -v k="$1" '$1 == k {print $2 " | " $3}' "$tmp/det.txt"; }
 detn() { awk -v k="$1" '$1 == k {print $5}' "$tmp/det.txt"; }
 
@@ -117,7 +117,7 @@ for ROS) and, for autocal, writing the YAML and the 13 audit PNGs. autocal fitte
 (k3 fixed); its sub-pixel window reaches the neighbouring corners (half-size = half the corner
 spacing), which is most of its held-out error.
 
-Reproduce: \`scripts/bench/camera.sh\` after \`make build\`; the ROS peer alone:
+Reproduce: \`bash scripts/bench/camera.sh\` after \`make build\`; the ROS peer alone:
 \`/usr/bin/python3 scripts/ros_camera_calibration_peer.py --images '$data/left[0-9]*.jpg'\`.
 
 ### Chessboard detection per frame
@@ -146,5 +146,5 @@ The half-resolution precheck misses boards whose squares are small at half resol
 stage therefore turns it off), and an adaptive-threshold search that fails (a board cut by the
 edge) is slow; both are settings in \`config/camera_calibration.yaml\`.
 
-Reproduce: \`scripts/bench/camera.sh\` after \`make build\`.
+Reproduce: \`bash scripts/bench/camera.sh\` after \`make build\`.
 EOF2

@@ -36,7 +36,7 @@ echo "and world, both cores, including roslaunch's start): $(awk "BEGIN { printf
 echo "$result. The sweep's simulated length at real_time_factor 0 depends on how promptly the node is"
 echo "scheduled (the simulator does not wait for it), so the camera rostests run at real_time_factor 5."
 echo
-echo "Reproduce: \`scripts/bench/camera_sweep.sh\` after \`make build\` (the sweeps alone:"
+echo "Reproduce: \`bash scripts/bench/camera_sweep.sh\` after \`make build\` (the sweeps alone:"
 echo "\`taskset -c 0 build/bench/camera_sweep_bench\`; the node: \`roslaunch autocal camera_sim.launch"
 echo "calibration_root:=/tmp/cal real_time_factor:=0\` with the devel space sourced)."
 rm -rf "$root"

@@ -48,7 +48,7 @@ for n in $sizes; do
   fi
 done
 echo
-echo "Reproduce: \`FLEET_SIZES=\"1 2 4 8\" scripts/bench/fleet.sh\`."
+echo "Reproduce: \`FLEET_SIZES=\"1 2 4 8\" bash scripts/bench/fleet.sh\`."
 if [ -n "$failures" ]; then
   echo
   echo "Failed robots (logs kept in $root):"

@@ -24,4 +24,4 @@ wheels' traction.
 NOTE
 echo
 echo "Reproduce: \`make build && taskset -c 0 build/bench/sim_bench sim/config/robot.yaml sim/config/world.yaml 60\`"
-echo "(or \`scripts/bench/sim.sh\`)."
+echo "(or \`bash scripts/bench/sim.sh\`)."

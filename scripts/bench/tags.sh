@@ -5,7 +5,7 @@
 # on the raw frame with its own pose (what apriltag_ros runs), at quad_decimate 1 and 2.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-bin=devel/lib/autocal/bench_tag_detection
+bin=build/bench/bench_tag_detection
 frames=${TAGS_BENCH_FRAMES:-240}
 rounds=${TAGS_BENCH_ROUNDS:-3}
 [ -x "$bin" ] || { echo "tags bench: $bin missing (make build)" >&2; exit 1; }
@@ -56,5 +56,5 @@ faster than plain detection on the raw frame, and presumably why it finds fewer 
 (IPPE or \`estimate_tag_pose\`) costs little next to the detection. The \`detect_tags\` command's
 accuracy on the simulator's frames: [Accuracy in the tests](#accuracy-in-the-tests).
 
-Reproduce: \`scripts/bench/tags.sh\` after \`make build\` (\`TAGS_BENCH_FRAMES\`, \`TAGS_BENCH_ROUNDS\`).
+Reproduce: \`bash scripts/bench/tags.sh\` after \`make build\` (\`TAGS_BENCH_FRAMES\`, \`TAGS_BENCH_ROUNDS\`).
 EOF2

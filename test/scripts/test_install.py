@@ -48,9 +48,27 @@ class Install(unittest.TestCase):
                     self.assertTrue(os.access(exe, os.X_OK), "%s is not installed" % exe)
 
     def test_wrapper_commands_are_installed(self):
-        for name in ("calibrate_sim", "replay", "sim_fleet", "odometry_sim", "launch_args.py"):
+        for name in ("calibrate_sim", "replay", "sim_fleet", "odometry_sim"):
             with self.subTest(command=name):
                 self.assertTrue(os.access(os.path.join(self.bin, name), os.X_OK), name)
+        self.assertTrue(os.path.isfile(os.path.join(self.bin, "launch_args.py")))
+
+    def test_rosrun_offers_what_is_installed_and_nothing_else(self):
+        # What `rosrun autocal <Tab>` lists in this build (bash completion's own function), against
+        # the installed executables: no test binary, benchmark, helper script or catkin file.
+        completion = "/usr/share/bash-completion/completions/rosbash"
+        if not os.path.isfile(completion) or not shutil.which("catkin_find"):
+            self.skipTest("rosbash completion or catkin_find missing")
+        script = ('source %s; COMP_WORDS=(rosrun autocal ""); COMP_CWORD=2; _roscomplete_exe; '
+                  'printf "%%s\\n" "${COMPREPLY[@]}"' % completion)
+        env = dict(os.environ, ROS_PACKAGE_PATH=PKG + ":" + os.environ.get("ROS_PACKAGE_PATH", ""))
+        out = subprocess.run(["bash", "-c", script], stdout=subprocess.PIPE, text=True, env=env)
+        offered = set(out.stdout.split())
+        installed = {n for n in os.listdir(self.bin) if os.access(os.path.join(self.bin, n), os.X_OK)}
+        self.assertEqual(sorted(offered - installed), [], "offered by rosrun, not installed")
+        self.assertEqual(sorted(installed - offered), [], "installed, not offered by rosrun")
+        for name in offered:
+            self.assertNotRegex(name, r"^(test_|bench)|\.(sh|py)$")
 
     def test_launch_files_and_the_files_they_find_are_installed(self):
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):

@@ -73,6 +73,10 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/report/run_unwritable.test
     DEPENDENCIES test_run_unwritable run_report_node camera_calibration_node
     wheel_calibration_node sim_node)
+  add_rostest(test/report/run_unwritable.test
+    ARGS veh:=unitslip calibration_root:=/tmp/autocal_run_unit_slip unit_slip:=true
+    DEPENDENCIES test_run_unwritable run_report_node camera_calibration_node
+    wheel_calibration_node sim_node)
 
   # A robot config with a typo: the run's report names the simulator's reason.
   add_executable(test_run_bad_config EXCLUDE_FROM_ALL test/report/test_run_bad_config.cpp)

@@ -21,6 +21,7 @@ constexpr PhysicalRange kUmbmarkSide{"the UMBmark square's side", 0.2, 10.0};
 constexpr PhysicalRange kStraightRun{"a straight run", 0.1, 20.0};
 constexpr PhysicalRange kBoardSquare{"a board square", 0.005, 0.2};
 constexpr PhysicalRange kTagSize{"a tag's side", 0.02, 0.5};
+constexpr PhysicalRange kCameraHeight{"the camera's height above the floor", 0.03, 0.5};
 }  // namespace ranges
 
 /// Empty when `value_m` lies in `range`, or is not a positive finite number (the options' own

@@ -122,6 +122,18 @@ TEST(SweepRunInSim, DefaultRobotAndWorld) {
   // The probe found the deadband (0.08 in this robot) from above, within its step.
   EXPECT_GT(r.min_duty.left_forward, robot.deadband);
   EXPECT_LE(r.min_duty.left_forward, robot.deadband + 0.03);
+  // The progress a user watches (the published one never goes back: its running maximum) keeps
+  // pace with the sweep's time: within 0.3 of the time's fraction from the first step on.
+  ASSERT_GE(r.progress.size(), 2u);
+  const double t0 = r.progress.front().first, t1 = r.progress.back().first;
+  double shown = 0, worst = 0;
+  for (const auto& [t, p] : r.progress) {
+    shown = std::max(shown, p);
+    worst = std::max(worst, std::abs(shown - (t - t0) / (t1 - t0)));
+  }
+  std::cout << "progress: " << r.progress.size() << " values over " << t1 - t0
+            << " s; worst distance from the time's fraction " << worst << std::endl;
+  EXPECT_LE(worst, 0.3);
 }
 
 /// The passive replay fed what a recording of the live run holds, as `rosbag play` would.

@@ -6,11 +6,13 @@
 #include <ros/ros.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 
 #include "autocal/io/yaml_reader.h"
 #include "autocal/sim/config.h"
@@ -138,6 +140,34 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
   EXPECT_NEAR(r.kinematics.deadband_left, live.kinematics.deadband_left, 0.005);
   EXPECT_NEAR(r.kinematics.deadband_right, live.kinematics.deadband_right, 0.005);
   EXPECT_TRUE(fs::exists(replay_root / "report" / veh / "report.png"));
+  // The replay says it is one, shows every update of its iteration, and its progress (the console
+  // lines "wheels/replay running N %") rises with the recording, never back.
+  YamlMap replay_summary = YamlMap::loadFile((replay_root / "report" / veh / "summary.yaml").string());
+  EXPECT_EQ(replay_summary.required<std::string>("replay_of"), bag.string());
+  const std::string replay_text = readText(replay_root / "report" / veh / "summary.yaml");
+  const auto count_iterations = [](const std::string& text) {
+    int n = 0;
+    for (std::size_t at = text.find("- {drive: "); at != std::string::npos;
+         at = text.find("- {drive: ", at + 1))
+      ++n;
+    return n;
+  };
+  const int live_iterations = count_iterations(readText(summary));
+  const int replay_iterations = count_iterations(replay_text);
+  std::cout << "wheel iterations: live " << live_iterations << ", replay " << replay_iterations
+            << std::endl;
+  EXPECT_GE(replay_iterations, 2);
+  EXPECT_NEAR(replay_iterations, live_iterations, 1);
+  std::vector<int> percents;
+  const std::string replay_log = readText(root / "replay.log");
+  const std::string marker = "wheels/replay running ";
+  for (std::size_t at = replay_log.find(marker); at != std::string::npos;
+       at = replay_log.find(marker, at + 1))
+    percents.push_back(std::atoi(replay_log.c_str() + at + marker.size()));
+  ASSERT_FALSE(percents.empty()) << replay_log;
+  EXPECT_TRUE(std::is_sorted(percents.begin(), percents.end()));
+  EXPECT_GE(std::set<int>(percents.begin(), percents.end()).size(), 4u);
+  EXPECT_GE(percents.back(), 80);
 
   // Cut during the wheel stage (rosbag play -u: the recording up to halfway through the live wheel
   // stage, which starts when the camera stage ends, a few tenths of a second into the recording):

@@ -1,11 +1,13 @@
-// A run whose calibration_root cannot be written fails before the robot moves
-// (run_unwritable.test): every stage's FAILED names its output folder, and the simulator's truth
-// says the robot stayed at its start, still.
+// A run refused before the robot moves (run_unwritable.test): an unwritable calibration_root, or a
+// length given in the wrong unit. Each stage expected to fail FAILED with the expected cause (the
+// parameters expect_camera and expect_wheels; empty: that stage need not fail), no calibration
+// file was written, and the simulator's truth says the robot stayed at its start, still.
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
@@ -36,19 +38,29 @@ TEST(RunUnwritable, EveryStageFailsNamingItsFolderAndTheRobotNeverMoves) {
         if (!first_truth) first_truth = *m;
         truth = *m;
       });
-  const std::map<std::string, std::string> folders = {{"camera", root + "/camera_intrinsic"},
-                                                      {"wheels", root + "/kinematics"}};
-  ASSERT_TRUE(spinUntil([&] { return failed.count("camera") && failed.count("wheels"); }, 60.0))
-      << failed.size() << " stages failed";
-  for (const auto& [stage, folder] : folders) {
+  std::map<std::string, std::string> expected;  // by stage: a part of its failure reason
+  for (const std::string stage : {"camera", "wheels"}) {
+    const std::string text = testParam<std::string>("expect_" + stage);
+    if (!text.empty()) expected[stage] = text;
+  }
+  ASSERT_FALSE(expected.empty());
+  const auto all_failed = [&] {
+    for (const auto& e : expected)
+      if (!failed.count(e.first)) return false;
+    return true;
+  };
+  ASSERT_TRUE(spinUntil(all_failed, 60.0)) << failed.size() << " stages failed";
+  double t_end = 0;
+  for (const auto& [stage, text] : expected) {
     const std::string& why = failed.at(stage).failure_reason;
     std::cout << stage << ": " << why << std::endl;
-    EXPECT_NE(why.find(folder + ": cannot write here"), std::string::npos) << stage << ": " << why;
+    EXPECT_NE(why.find(text), std::string::npos) << stage << ": " << why;
+    t_end = std::max(t_end, failed.at(stage).header.stamp.toSec());
   }
+  for (const std::string file : {"/camera_intrinsic/" + veh + ".yaml", "/kinematics/" + veh + ".yaml"})
+    EXPECT_FALSE(std::ifstream(root + file).good()) << root + file << " was written";
   // The robot: at its start (the world's robot_start, the origin), still, two seconds of sim time
   // after the failures.
-  const double t_end =
-      std::max(failed.at("camera").header.stamp.toSec(), failed.at("wheels").header.stamp.toSec());
   ASSERT_TRUE(spinUntil([&] { return truth && truth->header.stamp.toSec() > t_end + 2.0; }, 60.0));
   for (const nav_msgs::Odometry& t : {*first_truth, *truth}) {
     EXPECT_LT(std::hypot(t.pose.pose.position.x, t.pose.pose.position.y), 1e-4)

@@ -190,9 +190,28 @@ TEST(NodeRuntime, AStageInterruptedWhileWaitingForTheOneBeforeEndsWithoutFailed)
     EXPECT_NE(s.state, CalibrationStatus::STATE_FAILED) << s.phase << ": " << s.failure_reason;
 }
 
+// Filled from the test's start: the stage node fails within 2 x ~connect_wait_s of its start.
+std::vector<CalibrationStatus> g_nodriver_status;
+
+TEST(NodeRuntime, AStageWithNoWheelsDriverFailsBeforeDriving) {
+  const std::vector<CalibrationStatus>& got = g_nodriver_status;
+  ASSERT_TRUE(spinUntil(
+      [&] { return !got.empty() && got.back().state == CalibrationStatus::STATE_FAILED; }, 30.0))
+      << "no FAILED from the camera stage with no wheels driver";
+  EXPECT_NE(got.back().failure_reason.find(
+                "nobody subscribes to /nodriver/wheels_driver_node/wheels_cmd"),
+            std::string::npos)
+      << got.back().failure_reason;
+  for (const CalibrationStatus& s : got) EXPECT_NE(s.phase, "camera/probe") << "it began to drive";
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "ros_layer_test");
   ros::NodeHandle nh;
+  ros::Subscriber nodriver = nh.subscribe<CalibrationStatus>(
+      "/nodriver/calibration/status", 20,
+      boost::function<void(const CalibrationStatus::ConstPtr&)>(
+          [](const CalibrationStatus::ConstPtr& m) { g_nodriver_status.push_back(*m); }));
   return RUN_ALL_TESTS();
 }

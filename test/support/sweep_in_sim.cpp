@@ -73,6 +73,8 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
         next_frame += frame_dt;
       }
       const WheelDuties d = run.update(t);
+      if (out.progress.empty() || out.progress.back().second != run.progress())
+        out.progress.emplace_back(t, run.progress());
       if (tap) {
         const std::string phase = std::string("camera/") + camera::name(run.stage());
         if (phase != last_phase) tap->phase(t, phase);
@@ -86,6 +88,7 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
     out.failure = std::string(e.what()) + " [" + run.collector().coverage().summary() + "]";
   }
   simulation.setDuty(0, 0);
+  out.progress.emplace_back(simulation.time_s(), run.progress());
   out.swept = run.swept();
   out.sim_s = run.elapsedS();
   out.views = static_cast<int>(run.collector().views().size());

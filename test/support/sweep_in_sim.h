@@ -35,6 +35,8 @@ struct SweepInSim {
   std::string calibration_failure;   ///< calibrate() threw
   int views = 0, sharp_views = 0, steps = 0;
   camera::MinDutyResult min_duty;
+  /// (sim time [s], SweepRun::progress()) at each change of the progress, and at the end.
+  std::vector<std::pair<double, double>> progress;
   camera::BoardSpec board;
   camera::CalibrationOptions calibration_options;  ///< what the run calibrated with
   cv::Size image_size;

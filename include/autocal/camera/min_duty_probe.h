@@ -5,6 +5,8 @@
 // pulse, waits, and reports the ticks; the wheel stage and the kinematics reuse the result.
 #pragma once
 
+#include <algorithm>
+
 #include <string>
 
 #include "autocal/camera/wheel_turn.h"
@@ -68,6 +70,8 @@ class MinDutyProbe {
   /// Valid once finished() and !failed().
   const MinDutyResult& result() const { return result_; }
   int pulses() const { return pulses_; }
+  /// Wheel directions probed so far, 0-4.
+  int probed() const { return std::min(stage_, 4); }
 
  private:
   MinDutyProbeOptions options_;

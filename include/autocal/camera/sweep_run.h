@@ -157,6 +157,13 @@ class SweepRun {
   SweepRunOptions options_;
   CameraCalibrationConfig camera_;
   SweepController controller_;
+  /// Progress through the sweep's legs: the current leg (SweepController::pass), the heading it
+  /// began at and the widest leg so far [rad]; the sweep usually ends in its third leg.
+  static constexpr double kExpectedLegs = 3;
+  static constexpr double kFirstLegArcRad = 3.14159;  ///< before a leg ended: half a turn
+  static constexpr double kProbeShare = 0.2;          ///< of the stage's progress
+  int leg_ = 0;
+  double leg_start_rad_ = 0, leg_arc_rad_ = 0;
   MinDutyProbe probe_;
   ViewCollector collector_;
   SweepRunStage stage_ = SweepRunStage::kWaitForData;

@@ -73,6 +73,8 @@ struct RunRecord {
   /// The simulator's true poses (its world frame), when one published them; empty on a robot.
   std::vector<std::pair<double, Pose2D>> true_poses;
   int ticks_per_revolution = 0;
+  /// The recording this run replays (replay.launch); empty for a live run.
+  std::string replay_of;
   /// Set by RunRecorder::markStageDead and markInterrupted: why the run ended without its stages'
   /// DONE or FAILED.
   std::string run_failure;
@@ -89,6 +91,8 @@ class RunRecorder {
   /// when empty or repeated.
   RunRecorder(const std::string& vehicle, const std::vector<std::string>& stages);
 
+  /// The recording the run replays (RunRecord::replay_of).
+  void setReplayOf(const std::string& recording) { record_.replay_of = recording; }
   /// A status of any stage; statuses of stages not in the run (e.g. "sim") are ignored.
   void addStatus(const StatusUpdate& status);
   /// Both wheels' counts at one instant, kept at most every `min_interval_s` for the believed

@@ -155,6 +155,11 @@ bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string&
   last_frame_.stamp_s = stamp_s;
   last_frame_.frame = std::move(frame);
   last_frame_.decision = controller_.decide(obs);
+  if (controller_.pass() != leg_) {  // a leg (a turn from one extreme board to the other) ended
+    leg_arc_rad_ = std::max(leg_arc_rad_, std::abs(controller_.headingRad() - leg_start_rad_));
+    leg_start_rad_ = controller_.headingRad();
+    leg_ = controller_.pass();
+  }
   pending_decision_ = true;
   return true;
 }
@@ -308,14 +313,22 @@ double SweepRun::progress() const {
     case SweepRunStage::kWaitForData:
       return 0;
     case SweepRunStage::kProbe:
-      return 0.05 * std::min(4, probe_.pulses()) / 4.0;
+      // The probe of the four wheel directions takes about as long as the sweep's first leg.
+      return kProbeShare * probe_.probed() / 4.0;
     case SweepRunStage::kSweep: {
+      // The sweep ends when the coverage suffices, in its second or third leg (the first legs
+      // count the boards). The coverage (the worst of its measures and the views against
+      // min_views) rises in bursts while boards are in view; the legs turned (each by its share
+      // of the widest leg so far, half a turn before one ended) rise with the turning: the mean of
+      // the two keeps pace with the sweep.
       const Coverage c = collector_.coverage();
-      double mean = 0;
-      for (double p : c.progress) mean += p / c.progress.size();
-      const double passes =
-          static_cast<double>(controller_.pass()) / (options_.sweep.max_passes + 1);
-      return 0.05 + 0.9 * std::min(1.0, std::max(mean, passes));
+      double coverage = std::min(1.0, static_cast<double>(c.views) / options_.min_views);
+      for (double p : c.progress) coverage = std::min(coverage, p);
+      const double arc_rad = leg_arc_rad_ > 0 ? leg_arc_rad_ : kFirstLegArcRad;
+      const double within =
+          std::min(0.9, std::abs(controller_.headingRad() - leg_start_rad_) / arc_rad);
+      const double legs = std::min(1.0, (leg_ + within) / kExpectedLegs);
+      return kProbeShare + (0.95 - kProbeShare) * 0.5 * (coverage + legs);
     }
     case SweepRunStage::kSwept:
     case SweepRunStage::kFailed:

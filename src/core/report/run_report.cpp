@@ -543,7 +543,9 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
                         const cv::Mat& ground_view) {
   cv::Mat sheet(1040, 1600, CV_8UC3, kWhite);
   const bool ok = record.succeeded();
-  text(sheet, "autocal self-calibration: " + record.vehicle, {20, 36}, 0.9, kBlack, 2);
+  const bool replay = !record.replay_of.empty();
+  text(sheet, "autocal self-calibration: " + record.vehicle + (replay ? " (REPLAY)" : ""),
+       {20, 36}, 0.9, kBlack, 2);
   const std::vector<Gate> gates = evaluateGates(record, audit, options);
   const auto passed =
       std::count_if(gates.begin(), gates.end(), [](const Gate& g) { return g.passed; });
@@ -551,7 +553,12 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   text(sheet, std::to_string(passed) + " of " + std::to_string(gates.size()) + " gates passed",
        {800, 36}, 0.7, passed == static_cast<long>(gates.size()) ? kGreen : kRed, 2);
   text(sheet, time_utc, {1340, 36}, 0.5, kGrey);
-  if (!ok) text(sheet, record.failure(), {20, 62}, 0.5, kRed);
+  std::string second_line = ok ? "" : record.failure();
+  if (replay) {
+    second_line += std::string(second_line.empty() ? "" : "; ") + "a replay of the recording " +
+                   record.replay_of + " (no robot drove)";
+  }
+  if (!second_line.empty()) text(sheet, second_line, {20, 62}, 0.5, ok ? kBlack : kRed);
 
   drawMosaic(sheet, cv::Rect(20, 95, 660, 540), audit);
   drawGroundView(sheet, cv::Rect(700, 95, 310, 300), ground_view);
@@ -598,6 +605,7 @@ std::string summaryYaml(const RunRecord& record, const ViewsAudit& audit,
   o << "# autocal calibration run report: the figures of report.png (README \"Report\")\n";
   o << "vehicle: " << quoted(record.vehicle) << "\n";
   o << "time_utc: " << quoted(time_utc) << "\n";
+  if (!record.replay_of.empty()) o << "replay_of: " << quoted(record.replay_of) << "\n";
   // result: every stage DONE (each passed its own gates); gates_passed adds the report's.
   o << "result: " << (record.succeeded() ? "success" : "failed") << "\n";
   o << "failure: " << quoted(record.failure()) << "\n";

@@ -37,6 +37,10 @@ void CameraCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
                         "must be > 0");
   ros_layer::checkParam(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
+  ros_layer::checkLength("board_square_m", board_square_m, ranges::kBoardSquare);
+  ros_layer::checkLength("nominal_wheel_radius_m", run.nominal_wheel_radius_m,
+                         ranges::kWheelRadius);
+  ros_layer::checkLength("nominal_wheelbase_m", run.nominal_wheelbase_m, ranges::kWheelbase);
   ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
                         "must not be empty");
   ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
@@ -342,7 +346,7 @@ void CameraCalibrationNode::runPassive() {
     ros::spinOnce();
     if (error_) std::rethrow_exception(error_);
     if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.status_rate_hz) {
-      status_.running("camera/replay", recording_->stageStarted() ? 0.5 : 0.0, replay_->describe(),
+      status_.running("camera/replay", 0.9 * recording_->progress(), replay_->describe(),
                       {{"stops", static_cast<double>(replay_->stops())},
                        {"views", static_cast<double>(replay_->collector().coverage().views)},
                        {"frames_dropped", static_cast<double>(frames_->dropped())}});

@@ -18,6 +18,8 @@ void LaneRefinementNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
   ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
+  ros_layer::checkLength("tag_size_m", refiner.detector.tag_size_m, ranges::kTagSize);
+  ros_layer::checkLength("camera_height_m", refiner.mount.height_m, ranges::kCameraHeight);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");

@@ -24,6 +24,11 @@ void OdometryCalibrationNodeOptions::validate() const {
                         "must be > 0 [m]");
   ros_layer::checkParam(std::isfinite(wheelbase_m) && wheelbase_m > 0, "wheelbase_m",
                         "must be > 0 [m]");
+  ros_layer::checkLength("wheel_radius_m", wheel_radius_m, ranges::kWheelRadius);
+  ros_layer::checkLength("wheelbase_m", wheelbase_m, ranges::kWheelbase);
+  if (method == "umbmark") ros_layer::checkLength("side_m", umbmark.side_m, ranges::kUmbmarkSide);
+  if (method == "uah")
+    ros_layer::checkLength("straight_length_m", run.straight_length_m, ranges::kStraightRun);
   ros_layer::checkParam(ticks_per_revolution >= 0, "ticks_per_revolution",
                         "must be >= 0 (0: from the encoder messages)");
   ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",

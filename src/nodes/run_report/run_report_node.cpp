@@ -61,11 +61,13 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("silent_warn_s", options_.silent_warn_s);
   p.get("path_rate_hz", options_.path_rate_hz);
   p.get("true_pose_topic", options_.true_pose_topic);
+  p.get("replay_of", options_.replay_of);
   options_.odom_frame = options_.veh + "/odom";
   p.get("odom_frame", options_.odom_frame);
   options_.validate();
   checkWritableFolder(options_.report_dir);  // before the run: the report is written at its end
   recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
+  recorder_->setReplayOf(options_.replay_of);
 
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_sub_ = nh_.subscribe("calibration/status", 50, &RunReportNode::onStatus, this);

@@ -59,6 +59,7 @@ struct RunReportNodeOptions {
   /// nav_msgs/Odometry of the robot's true pose (a simulator's), drawn as the true path; empty:
   /// none.
   std::string true_pose_topic;
+  std::string replay_of;  ///< the recording replayed (replay.launch); empty: a live run
   /// The believed path's frame: where the robot started (default "<veh>/odom").
   std::string odom_frame;
   /// Throws ConfigError naming the first bad key.

@@ -22,6 +22,8 @@ void WheelCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
                         "must be a non-empty name without '/'");
   ros_layer::checkCalibrationRoot(calibration_root);
+  ros_layer::checkLength("tag_size_m", run.detector.tag_size_m, ranges::kTagSize);
+  ros_layer::checkLength("camera_height_m", run.mount.height_m, ranges::kCameraHeight);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");
@@ -348,7 +350,8 @@ void WheelCalibrationNode::runPassive() {
     rate.sleep();
   };
   while (ros_layer::ok() && !recording_->stageEnded()) {
-    spin("wheels/replay", replay_ ? 0.5 : 0.0);
+    // The replay keeps pace with the recording: its progress is the recorded stage's.
+    spin("wheels/replay", 0.9 * recording_->progress());
     if (recording_->recordingEnded(options_.recording_end_wait_s)) {
       throw InputError("the recording ended before its wheel stage did (" + describe() +
                        (recording_->stageStarted()
@@ -381,6 +384,15 @@ void WheelCalibrationNode::runPassive() {
     throw CalibrationError("the replayed iteration did not converge (" +
                            std::to_string(result.iterations.size()) + " updates over " +
                            std::to_string(result.drives) + " drives): nothing written");
+  }
+  // Each update of the replayed iteration, as the live stage published them (the report's k plot).
+  for (std::size_t i = 0; i < result.iterations.size(); ++i) {
+    const TrimIteration& it = result.iterations[i];
+    status_.running("wheels/replay", 0.95, describe(),
+                    {{"iteration", static_cast<double>(i + 1)},
+                     {"k", it.ratio_after},
+                     {"trim", trimFromSpeedRatio(it.ratio_after, result.kinematics.gain)},
+                     {"last_dtheta_rad", it.delta_theta_rad}});
   }
   status_.running("wheels/write", 0.98, describe());
   writeKinematicsFile(kinematics_path_, result.kinematics);  // validates first; throws on failure

@@ -33,8 +33,10 @@ bool isWaitPhase(const std::string& phase) {
 bool ok() { return ros::ok() && !g_interrupted; }
 bool interrupted() { return g_interrupted; }
 
+// A queue, not only the latest: statuses published in a burst (a replay's iteration, a FAILED
+// right after a RUNNING) all reach the report. Latched: a late subscriber gets the last one.
 StatusPublisher::StatusPublisher(ros::NodeHandle nh, const std::string& topic)
-    : pub_(nh.advertise<CalibrationStatus>(topic, 1, true)), topic_(pub_.getTopic()) {}
+    : pub_(nh.advertise<CalibrationStatus>(topic, 50, true)), topic_(pub_.getTopic()) {}
 
 void StatusPublisher::publish(uint8_t state, const std::string& phase, double progress,
                               const std::string& text, const std::string& failure_reason,
@@ -111,9 +113,13 @@ WheelsCommander connectStage(ros::NodeHandle nh, const std::function<bool()>& in
     ros::WallDuration(0.01).sleep();
   }
   WheelsCommander wheels(nh, "wheels_driver_node/wheels_cmd");
-  if (!wheels.waitForSubscriber(wait_s)) {
-    ROS_WARN("%s: nobody subscribes to wheels_driver_node/wheels_cmd",
-             ros::this_node::getName().c_str());
+  if (!wheels.waitForSubscriber(wait_s) && ok()) {
+    // Checked before the first command: a stage that drove into nothing would wait out its
+    // encoder timeout and blame the encoders.
+    throw InputError("nobody subscribes to " + nh.resolveName("wheels_driver_node/wheels_cmd") +
+                     " within " + formatNumber(wait_s, 3) +
+                     " s (~connect_wait_s): is the wheels driver (or the simulator) running "
+                     "under this vehicle name?");
   }
   return wheels;
 }

@@ -84,7 +84,8 @@ bool ok();
 /// with wait_for_controller holds its clock until a wheels_cmd publisher appears, and a held clock
 /// does not move), then advertises wheels_driver_node/wheels_cmd and waits up to `wait_s` for a
 /// subscriber, so that the first command is not lost (WheelsCommander::waitForSubscriber). Inputs
-/// that never connect are left to the stage's own timeouts; a missing subscriber is warned of.
+/// that never connect are left to the stage's own timeouts. Throws InputError when nobody
+/// subscribes to wheels_cmd within `wait_s`: the robot cannot be driven.
 WheelsCommander connectStage(ros::NodeHandle nh, const std::function<bool()>& inputs_connected,
                              double wait_s);
 

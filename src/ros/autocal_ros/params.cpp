@@ -20,6 +20,11 @@ void checkParam(bool ok, const std::string& key, const std::string& what) {
   checkConfig(ok, "~" + key, what);
 }
 
+void checkLength(const std::string& key, double value_m, const PhysicalRange& range) {
+  const std::string slip = outOfRange("~" + key, value_m, range);
+  if (!slip.empty()) throw ConfigError(slip);
+}
+
 void checkCalibrationRoot(const std::string& calibration_root) {
   checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
   checkParam(calibration_root.front() == '/', "calibration_root",

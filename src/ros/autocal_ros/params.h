@@ -6,6 +6,8 @@
 #include <ros/node_handle.h>
 
 #include <string>
+
+#include "autocal/physical_range.h"
 #include <vector>
 
 #include "autocal/errors.h"
@@ -19,6 +21,11 @@ std::string defaultVeh(const ros::NodeHandle& nh);
 
 /// Throws ConfigError "~<key>: <what>" unless `ok`: a node's options name the private parameter.
 void checkParam(bool ok, const std::string& key, const std::string& what);
+
+/// A length parameter [m] a robot of this size can have: a ConfigError "~key VALUE: <what> ... is
+/// MIN-MAX m; VALUE looks like millimetres (...)" when it is off (outOfRange). Zero and negative
+/// values are left to the parameter's own check.
+void checkLength(const std::string& key, double value_m, const PhysicalRange& range);
 
 /// ~calibration_root as a node needs it: not empty and absolute (a node runs in $ROS_HOME, where a
 /// relative path would put the files); a ConfigError saying how to give it otherwise.

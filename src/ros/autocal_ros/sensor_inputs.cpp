@@ -1,5 +1,7 @@
 #include "autocal_ros/sensor_inputs.h"
 
+#include <algorithm>
+
 #include <cv_bridge/cv_bridge.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -134,6 +136,8 @@ void RecordingFollower::onStatus(const autocal::CalibrationStatus::ConstPtr& msg
     noteMessage();
     if (msg->phase.rfind(stage_ + "/", 0) != 0) return;
     if (msg->phase != stage_ + "/wait") started_ = true;
+    if (msg->progress >= 0 && msg->progress <= 1)
+      progress_ = std::max(progress_, static_cast<double>(msg->progress));
     const ros::Time stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
     on_phase_(stamp, msg->phase);
     if (msg->state == autocal::CalibrationStatus::STATE_DONE ||

@@ -114,6 +114,9 @@ class RecordingFollower {
   bool stageEnded() const { return ended_; }
   bool stageFailed() const { return failed_; }
   const std::string& failure() const { return failure_; }
+  /// The recorded stage's progress so far, 0-1 (the largest its statuses gave): how far the
+  /// recording has played through the stage.
+  double progress() const { return progress_; }
   /// Messages of the recording seen so far (commands and statuses).
   int messages() const { return messages_; }
   /// Another message of the recording arrived (the node's frames and encoders; commands and
@@ -138,6 +141,7 @@ class RecordingFollower {
   std::exception_ptr* error_ = nullptr;
   bool started_ = false, ended_ = false, failed_ = false;
   std::string failure_;
+  double progress_ = 0;
   int messages_ = 0;
   ros::WallTime clock_start_wall_, last_message_wall_;
 };

@@ -70,6 +70,31 @@ class Install(unittest.TestCase):
         for name in offered:
             self.assertNotRegex(name, r"^(test_|bench)|\.(sh|py)$")
 
+    def test_installed_package_calibrates_in_the_simulator(self):
+        # `rosrun autocal calibrate_sim` from the installed package alone: the environment names
+        # the prefix and Debian's ROS, never this source tree or its build; the run must succeed
+        # and write its files, and nothing it prints may name the source tree.
+        root = os.path.join(self.prefix, "calibrations")
+        home = os.path.join(self.prefix, "ros_home")
+        env = {k: v for k, v in os.environ.items()
+               if not k.startswith(("ROS", "CATKIN", "CMAKE_PREFIX")) and
+               k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "PKG_CONFIG_PATH")}
+        env.update(PATH="/usr/bin:/bin", PYTHONNOUSERSITE="1", CMAKE_PREFIX_PATH=self.prefix,
+                   ROS_PACKAGE_PATH=os.path.join(self.prefix, "share") + ":/usr/share",
+                   PYTHONPATH=os.path.join(self.prefix, "lib", "python3", "dist-packages"),
+                   ROS_HOME=home, ROS_MASTER_URI="http://localhost:%d" % (11600 + os.getpid() % 300))
+        run = subprocess.run(["rosrun", "autocal", "calibrate_sim", "veh:=installed",
+                              "calibration_root:=" + root], cwd=self.prefix, env=env,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             timeout=600)
+        self.assertEqual(run.returncode, 0, run.stdout[-3000:])
+        self.assertNotIn(PKG + "/", run.stdout.replace(self.prefix, ""))
+        for path in ("camera_intrinsic/installed.yaml", "kinematics/installed.yaml",
+                     "report/installed/summary.yaml"):
+            self.assertTrue(os.path.isfile(os.path.join(root, path)), path)
+        with open(os.path.join(root, "report", "installed", "summary.yaml")) as f:
+            self.assertIn("result: success", f.read())
+
     def test_launch_files_and_the_files_they_find_are_installed(self):
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
             rel = os.path.relpath(launch, PKG)

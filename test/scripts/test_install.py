@@ -95,6 +95,53 @@ class Install(unittest.TestCase):
         with open(os.path.join(root, "report", "installed", "summary.yaml")) as f:
             self.assertIn("result: success", f.read())
 
+    def test_package_xml_declares_what_the_package_uses(self):
+        # rosdep installs what package.xml declares: every catkin component and library CMake
+        # finds, every package a launch file starts a node of, every module an installed script
+        # imports.
+        xml = ET.parse(os.path.join(PKG, "package.xml")).getroot()
+        declared = {e.text.strip() for e in xml if e.tag.endswith("depend")}
+        with open(os.path.join(PKG, "CMakeLists.txt")) as f:
+            cmake = f.read()
+        components = re.search(r"find_package\(catkin REQUIRED COMPONENTS([^)]*)\)", cmake)
+        needed = {c: "find_package(catkin COMPONENTS %s)" % c for c in components.group(1).split()}
+        rosdep_key = {"OpenCV": "libopencv-dev", "Eigen3": "eigen", "yaml-cpp": "yaml-cpp",
+                      "box2d": "box2d", "apriltag": "apriltag", "rostest": "rostest",
+                      "GTest": "gtest"}
+        for name in re.findall(r"find_package\((\S+)[^)]*REQUIRED", cmake):
+            if name != "catkin":
+                self.assertIn(name, rosdep_key, "find_package(%s): add its rosdep key here" % name)
+                needed[rosdep_key[name]] = "find_package(%s)" % name
+        for launch in glob.glob(os.path.join(PKG, "launch", "*.launch")):
+            for node in ET.parse(launch).getroot().iter("node"):
+                # RViz only opens with rviz:=true, on a desktop: not a robot's dependency.
+                if node.get("pkg") not in ("autocal", "rviz"):
+                    needed[node.get("pkg")] = os.path.basename(launch)
+        module_key = {"rospy": "rospy", "rosbag": "rosbag", "yaml": "python3-yaml",
+                      "numpy": "python3-numpy", "cv2": "python3-opencv"}
+        for name in os.listdir(self.bin):
+            path = os.path.join(self.bin, name)
+            with open(path, "rb") as f:
+                head = f.read(64)
+            if head.startswith(b"#!") and b"python" not in head:  # a shell script's ROS tools
+                with open(path) as f:
+                    for tool in set(re.findall(r"\b(roslaunch|rosbag|rostopic|rosnode|rosrun)\b",
+                                               f.read())):
+                        needed["rosbash" if tool == "rosrun" else tool] = "%s runs %s" % (name, tool)
+                continue
+            if not head.startswith(b"#!/usr/bin/python3") and not name.endswith(".py"):
+                continue
+            with open(path) as f:
+                modules = re.findall(r"^\s*(?:import|from)\s+(\w+)", f.read(), re.M)
+            for m in modules:
+                if m in sys.stdlib_module_names or m in ("autocal", "launch_args"):
+                    continue
+                self.assertIn(m, module_key, "%s imports %s: add its rosdep key here" % (name, m))
+                needed[module_key[m]] = "%s imports %s" % (name, m)
+        for key, why in sorted(needed.items()):
+            with self.subTest(key=key):
+                self.assertIn(key, declared, "package.xml lacks <depend>%s</depend> (%s)" % (key, why))
+
     def test_launch_files_and_the_files_they_find_are_installed(self):
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
             rel = os.path.relpath(launch, PKG)

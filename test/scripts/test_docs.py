@@ -8,8 +8,11 @@ Fails when
   (b) a page's Parameters table lists a `~name` the code no longer reads;
   (c) README.md is longer than 260 lines;
   (d) README.md, BENCHMARKS.md or a file under doc/ names a tracker issue ("issue" and a number),
-      DESIGN.md or ../shared, or holds a date such as 2026-11-24 (history goes to CHANGELOG.rst);
+      DESIGN.md or ../shared, or holds a date such as YYYY-MM-DD (history goes to CHANGELOG.rst);
   (e) a relative link in README.md or doc/**/*.md points to a file that does not exist;
+  (f) a failure reason a stage can publish (the text of fail("..."), failure_ = "...", or a thrown
+      CalibrationError or InputError in the files of FAILURE_SOURCES) is not in
+      doc/troubleshooting.md;
 and checks that every node page follows the one template, and that no node reading parameters is
 missing from the mapping below (a new node, or a new shared helper, must be added to it).
 
@@ -240,6 +243,36 @@ class NodeParameterTest(unittest.TestCase):
                 order = [h for h in sections(text)[1] if h in TEMPLATE]
                 self.assertEqual(order, TEMPLATE, "%s: sections %s, expected %s" % (
                     rel, order, TEMPLATE))
+
+
+# The sources whose failure texts a stage publishes as its FAILED reason (its core run and the
+# parts that fail it, its node, the ROS layer's shared waits and checks).
+FAILURE_SOURCES = [
+    "src/core/camera/sweep_run.cpp", "src/core/camera/sweep_controller.cpp",
+    "src/core/camera/min_duty_probe.cpp", "src/core/camera/calibration.cpp",
+    "src/nodes/camera_calibration/camera_calibration_node.cpp",
+    "src/core/wheels/wheel_run.cpp", "src/core/wheels/trim_estimator.cpp",
+    "src/nodes/wheel_calibration/wheel_calibration_node.cpp",
+    "src/core/odometry/uah_run.cpp", "src/core/odometry/umbmark_run.cpp",
+    "src/nodes/odometry_calibration/odometry_calibration_node.cpp",
+    "src/ros/autocal_ros/node_runtime.cpp", "src/ros/autocal_ros/msg_conversion.cpp",
+]
+# A failure's first string literal (after an optional variable and +): the text the page must hold.
+FAILURE = re.compile(r'(?:\bfail\(|failure_ =|throw (?:Calibration|Input)Error\()\s*'
+                     r'(?:[a-z_]+ \+ )?"((?:[^"\\]|\\.)*)"')
+
+
+class TroubleshootingTest(unittest.TestCase):
+    def test_every_failure_reason_is_documented(self):
+        page = read("doc/troubleshooting.md")
+        for rel in FAILURE_SOURCES:
+            for literal in FAILURE.findall(read(rel)):
+                text = literal.replace('\\"', '"').strip(' :;("\'')
+                if len(text) < 8:
+                    continue  # a fragment ("only ", "view "): its row names the whole reason
+                with self.subTest(file=rel, reason=text):
+                    self.assertTrue(text in page, "%s can fail with '%s...', which "
+                                  "doc/troubleshooting.md does not list" % (rel, text))
 
 
 class DocumentTest(unittest.TestCase):

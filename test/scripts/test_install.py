@@ -142,6 +142,19 @@ class Install(unittest.TestCase):
             with self.subTest(key=key):
                 self.assertIn(key, declared, "package.xml lacks <depend>%s</depend> (%s)" % (key, why))
 
+    def test_one_launch_file_composes_the_stages(self):
+        # calibrate.launch composes the live stages; the simulator's run and the fleet include it
+        # (replay.launch composes the passive ones). No other file starts both driving stages.
+        composers = []
+        for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
+            included = {os.path.basename(i.get("file", ""))
+                        for i in ET.parse(launch).getroot().iter("include")}
+            if {"camera_calibration.launch", "wheel_calibration.launch"} <= included:
+                composers.append(os.path.basename(launch))
+            if os.path.basename(launch) in ("calibrate_sim.launch", "fleet_robot.launch"):
+                self.assertIn("calibrate.launch", included, launch)
+        self.assertEqual(composers, ["calibrate.launch", "replay.launch"])
+
     def test_launch_files_and_the_files_they_find_are_installed(self):
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
             rel = os.path.relpath(launch, PKG)

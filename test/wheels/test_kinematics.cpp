@@ -326,9 +326,9 @@ TEST_F(KinematicsFile, RoundTripWithCalibrationTime) {
 }
 
 TEST_F(KinematicsFile, DuckietownFileReadsWithDefaultsForMissingKeys) {
-  // A 2017 fleet file: no v_max, omega_max or deadband keys, integers where numbers are.
+  // An older fleet file: no v_max, omega_max or deadband keys, integers where numbers are.
   const std::string path = write("duckiebot.yaml",
-                                 "baseline: 0.1\ncalibration_time: 2017-09-25-16-58-23\n"
+                                 "baseline: 0.1\ncalibration_time: 1999-09-25-16-58-23\n"
                                  "gain: 1\nk: 27\nlimit: 1.0\nradius: 0.0318\ntrim: -0.0427\n");
   const KinematicsParams p = readKinematicsFile(path);
   EXPECT_EQ(p.trim, -0.0427);

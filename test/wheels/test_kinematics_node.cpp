@@ -200,7 +200,7 @@ TEST_F(KinematicsNodeTest, FileTrimRunTimeTrimSaveAndStop) {
   const std::string path = autocal::wheels::kinematicsPath(root.string(), "kintest");
   fs::create_directories(fs::path(path).parent_path());
   // A Duckietown file: their keys only, as a 2017 robot has it.
-  std::ofstream(path) << "baseline: 0.1\ncalibration_time: 2017-09-25-16-58-23\ngain: " << gain
+  std::ofstream(path) << "baseline: 0.1\ncalibration_time: 1999-09-25-16-58-23\ngain: " << gain
                       << "\nk: 27.0\nlimit: 1.0\nradius: 0.0318\ntrim: " << trim << "\n";
   start("kintest", root);
 

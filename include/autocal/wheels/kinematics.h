@@ -100,7 +100,7 @@ KinematicsParams readKinematicsFile(const std::string& path);
 KinematicsParams readKinematicsFileOrDefaults(const std::string& path);
 
 /// The file's YAML text, Duckietown's keys in Duckietown's order, `calibration_time` = `time_utc`
-/// (e.g. "2026-11-23-14-00-00", as Duckietown writes it), then the deadband keys.
+/// (YYYY-MM-DD-hh-mm-ss, as Duckietown writes it), then the deadband keys.
 std::string kinematicsYaml(const KinematicsParams& params, const std::string& time_utc);
 
 /// Validates, then writes atomically (previous file kept as `<path>.prev`). Returns the time

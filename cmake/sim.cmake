@@ -6,7 +6,8 @@ target_sources(autocal_sim_core PRIVATE
   sim/src/renderer.cpp
   sim/src/simulation.cpp
   sim/src/transport.cpp
-  sim/src/floor_truth.cpp)
+  sim/src/floor_truth.cpp
+  sim/src/projection_difference.cpp)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sim_physics SOURCES test/sim/test_physics.cpp LIBS autocal_sim_core)

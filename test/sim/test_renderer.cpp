@@ -9,8 +9,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "autocal/errors.h"
 #include "autocal/sim/camera_model.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/projection_difference.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/scene.h"
 
@@ -106,6 +108,49 @@ double boardCornerRms(const sim::RobotConfig& robot, const sim::WorldConfig& wor
   cv::cornerSubPix(roi, corners, cv::Size(5, 5), cv::Size(-1, -1),
                    cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
   return matchRms(corners, truth);
+}
+
+// The projection difference of a calibrated model against the true lens, on known cases: the lens
+// itself gives 0 everywhere; a focal length off by dfx moves pixel u by dfx (u - cx) / fx; a
+// principal point off by dcy moves every pixel by dcy; a distortion that only the image's corners
+// feel leaves the centre alone.
+TEST(ProjectionDifference, KnownModelErrors) {
+  sim::Intrinsics lens;
+  lens.fx = 318;
+  lens.fy = 320.5;
+  lens.cx = 325.4;
+  lens.cy = 236.8;
+  lens.distortion_coefficients = {-0.27, 0.065, 0.0011, -0.0007, 0.001};
+  const sim::ProjectionDifference same = sim::projectionDifference(lens, lens);
+  EXPECT_EQ(same.pixels, 80 * 60);
+  EXPECT_EQ(same.unmapped, 0);
+  EXPECT_LT(same.worst_px, 1e-6);
+
+  sim::Intrinsics pinhole = lens;
+  pinhole.distortion_coefficients = {0, 0, 0, 0, 0};
+  sim::Intrinsics wider = pinhole;
+  wider.fx += 3;
+  double sum = 0;
+  int n = 0;
+  for (double v = 4; v < 480; v += 8)
+    for (double u = 4; u < 640; u += 8, ++n) sum += std::pow(3 * (u - pinhole.cx) / pinhole.fx, 2);
+  const sim::ProjectionDifference fx = sim::projectionDifference(pinhole, wider);
+  EXPECT_NEAR(fx.rms_px, std::sqrt(sum / n), 1e-6);
+  EXPECT_NEAR(fx.worst_px, 3 * (pinhole.cx - 4) / pinhole.fx, 1e-6);
+
+  sim::Intrinsics lower = pinhole;
+  lower.cy += 2;
+  const sim::ProjectionDifference cy = sim::projectionDifference(pinhole, lower);
+  EXPECT_NEAR(cy.rms_px, 2, 1e-6);
+  EXPECT_NEAR(cy.upper_rms_px, 2, 1e-6);
+  EXPECT_NEAR(cy.lower_rms_px, 2, 1e-6);
+
+  sim::Intrinsics k3 = lens;
+  k3.distortion_coefficients[4] += 0.05;  // r^6: 0.05 r^6, tiny near the centre
+  const sim::ProjectionDifference corners = sim::projectionDifference(lens, k3);
+  EXPECT_LT(corners.centre_rms_px, 0.05);
+  EXPECT_GT(corners.worst_px, 1.0);
+  EXPECT_THROW(sim::projectionDifference(lens, lens, 0), autocal::ConfigError);
 }
 
 TEST(SimRenderer, CameraModelMatchesOpenCvProjection) {

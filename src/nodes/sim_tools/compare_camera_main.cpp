@@ -1,7 +1,8 @@
 // compare_camera: a validation tool of the simulator (never used by a calibration): prints a
 // camera_info YAML written by a calibration next to the TRUE lens of the simulated robot.
 //   rosrun autocal compare_camera --robot-config sim/config/robot.yaml --calibration FILE.yaml
-// Prints one row per quantity (found, truth, error); exit codes: doc/calibration_run.md
+// Prints one row per quantity (found, truth, error), then the projection difference over the
+// whole image (sim/projection_difference.h); exit codes: doc/calibration_run.md
 // "Exit codes"; doc/nodes/compare_camera.md.
 #include <camera_calibration_parsers/parse.h>
 
@@ -11,7 +12,9 @@
 
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
+#include "autocal/io/camera_info_file.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/projection_difference.h"
 
 namespace {
 
@@ -60,6 +63,15 @@ int run(int argc, char** argv) {
     row(kTerms[i], info.D[i], t.distortion_coefficients[i],
         i < n.distortion_coefficients.size() ? n.distortion_coefficients[i] : NAN, false);
   }
+  // Over the whole image, where the views' own reprojection error cannot look: the true lens's
+  // ray of each pixel (every 8 px) projected with the calibrated model.
+  const autocal::sim::ProjectionDifference d =
+      autocal::sim::projectionDifference(t, autocal::loadCameraInfoYaml(calibration_path));
+  std::printf(
+      "projection difference over the whole image (%d pixels, every 8 px): RMS %.3f px, worst "
+      "%.3f px; upper half %.3f px, lower half %.3f px, within 100 px of the centre %.3f px%s\n",
+      d.pixels, d.rms_px, d.worst_px, d.upper_rms_px, d.lower_rms_px, d.centre_rms_px,
+      d.unmapped > 0 ? (", " + std::to_string(d.unmapped) + " pixels unmapped").c_str() : "");
   return 0;
 }
 

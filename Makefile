@@ -4,6 +4,7 @@
 #   make deps   installs the Debian packages (apt-get; prints the command when not root)
 #   make build  Release build into build/, leaves build/devel/setup.bash
 #   make bench  the benchmarks; writes BENCHMARKS.md figures under build/bench/
+#   make robustness  the whole calibration in robot mode over drawn robots (scripts/robustness.py)
 
 SHELL := /bin/bash
 # A pyenv python3 may come first on PATH and lacks ROS's Python modules: use Debian's.
@@ -22,7 +23,7 @@ DEBS := build-essential cmake catkin ros-base-dev libroscpp-dev python3-rostest 
   libbenchmark-dev opencv-doc python3-camera-calibration python3-image-geometry python3-opencv python3-cv-bridge \
   python3-yaml python3-numpy python3-nav-msgs python3-sensor-msgs python3-geometry-msgs python3-std-msgs
 
-.PHONY: all deps build test demo bench clean
+.PHONY: all deps build test demo bench robustness clean
 
 all: build
 
@@ -68,6 +69,12 @@ demo: build
 bench: build
 	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
 	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home bash scripts/bench.sh
+
+# The whole calibration in robot mode over N drawn robots (not part of make test: about 3 minutes
+# of wall time per robot and real-time factor); ROBUSTNESS_ARGS e.g. "--robots 4 --rtf 1".
+robustness: build
+	@source $(BUILD_DIR)/devel/setup.bash && ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH \
+	  ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home /usr/bin/python3 scripts/robustness.py $(ROBUSTNESS_ARGS)
 
 clean:
 	rm -rf $(BUILD_DIR) devel bin

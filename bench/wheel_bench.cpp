@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "autocal/sim/config.h"
+#include "autocal/sim/straight_drift.h"
 #include "support/wheels_in_sim.h"
 
 using namespace autocal;
@@ -96,8 +97,8 @@ int main() {
       zero.trim = 0;
       zero.deadband_left = zero.deadband_right = 0;
       for (double v : speeds) {
-        after += (after.empty() ? "" : " / ") + cm(test::straightDriftM(c.robot, r.result, v));
-        before += (before.empty() ? "" : " / ") + cm(test::straightDriftM(c.robot, zero, v));
+        after += (after.empty() ? "" : " / ") + cm(sim::straightDriftM(c.robot, r.result, v));
+        before += (before.empty() ? "" : " / ") + cm(sim::straightDriftM(c.robot, zero, v));
       }
       std::printf("| %s | %s | %zu | %.0f | %.1f | %+.4f | %+.4f | %s | %s |\n", c.name.c_str(),
                   compensate ? "autocal" : "paper", r.iterations.size(), r.sim_s, r.wall_s,

@@ -7,7 +7,8 @@ target_sources(autocal_sim_core PRIVATE
   sim/src/simulation.cpp
   sim/src/transport.cpp
   sim/src/floor_truth.cpp
-  sim/src/projection_difference.cpp)
+  sim/src/projection_difference.cpp
+  sim/src/straight_drift.cpp)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sim_physics SOURCES test/sim/test_physics.cpp LIBS autocal_sim_core)

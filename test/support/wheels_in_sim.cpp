@@ -9,6 +9,7 @@
 #include "autocal/errors.h"
 #include "autocal/sim/renderer.h"
 #include "autocal/sim/simulation.h"
+#include "autocal/sim/straight_drift.h"
 #include "autocal/sim/transport.h"
 
 namespace autocal {
@@ -107,27 +108,11 @@ WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig
   return out;
 }
 
-double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsParams& params,
-                      double speed_mps, double distance_m) {
-  sim::WorldConfig empty;
-  sim::RobotConfig r = robot;
-  sim::Simulation simulation(r, empty, sim::SimulationOptions());
-  const WheelDuties d = wheels::carCmdToDuties(params, speed_mps, 0.0);
-  simulation.setDuty(d.left, d.right);
-  const double max_s = 10.0 * distance_m / speed_mps;
-  while (simulation.time_s() < max_s) {
-    simulation.advance(0.01);
-    const Pose2D p = simulation.pose();
-    if (p.x_m >= distance_m) return std::abs(p.y_m);
-  }
-  return std::nan("");
-}
-
 std::vector<StraightDrift> straightDrifts(const sim::RobotConfig& robot,
                                           const wheels::KinematicsParams& params) {
   std::vector<StraightDrift> out;
   for (double v : {0.15, 0.25, 0.4})
-    out.push_back({v, straightDriftM(robot, params, v), v == 0.25 ? 0.02 : 0.03});
+    out.push_back({v, sim::straightDriftM(robot, params, v), v == 0.25 ? 0.02 : 0.03});
   return out;
 }
 

@@ -38,13 +38,7 @@ struct WheelsInSim {
 WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
                            wheels::WheelRun& run, const WheelsInSimOptions& options);
 
-/// Duckietown's acceptance test on the simulator's truth: from rest at the origin facing +x on an
-/// empty floor, command car_cmd (v, 0) through the kinematics `params` until the robot has come
-/// `distance_m` along x; the lateral drift |y| [m] (NaN when it never gets there).
-double straightDriftM(const sim::RobotConfig& robot, const wheels::KinematicsParams& params,
-                      double speed_mps, double distance_m = 2.0);
-
-/// The wheel stage's targets on the simulator's truth: straightDriftM at 0.15, 0.25 and 0.4 m/s,
+/// The wheel stage's targets on the simulator's truth: sim::straightDriftM at 0.15, 0.25 and 0.4 m/s,
 /// at most 2 cm at 0.25 (the calibration's speed) and 3 cm at the others. The trim alone is no
 /// measure when the deadbands are compensated: a trim and offsets that differ together by a few
 /// thousandths command the same duties.

@@ -1,6 +1,6 @@
 // validate_straight against the truth: its DONE figures (the drift at each speed, read by the node
 // from sim/ground_truth through the kinematics node) must match the same kinematics file driven on
-// the simulator's core by the test itself (support/wheels_in_sim: straightDriftM).
+// the simulator's core by the test itself (sim/straight_drift.h: straightDriftM).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "autocal/sim/config.h"
+#include "autocal/sim/straight_drift.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msgs.h"
 #include "support/ros_wait.h"
@@ -43,7 +44,7 @@ TEST(ValidateStraight, ReportsTheDriftTheTruthGives) {
   for (int i = 0; f.count("speed_mps_" + std::to_string(i)); ++i, ++runs) {
     const double v = f["speed_mps_" + std::to_string(i)];
     const double reported_cm = f["drift_cm_" + std::to_string(i)];
-    const double truth_cm = 100 * autocal::test::straightDriftM(robot, params, v);
+    const double truth_cm = 100 * autocal::sim::straightDriftM(robot, params, v);
     std::cout << v << " m/s: validate_straight " << reported_cm << " cm, the core " << truth_cm
               << " cm" << std::endl;
     // The file leaves the robot clearly crooked; both drives start from rest through the same

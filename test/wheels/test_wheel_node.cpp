@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "autocal/sim/config.h"
+#include "autocal/sim/straight_drift.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/msgs.h"
@@ -58,7 +59,7 @@ TEST(WheelNode, CalibratesTheTrimAndLeavesTheTagField) {
   const autocal::wheels::KinematicsParams params = autocal::wheels::readKinematicsFile(path);
   const double v_cal = testParam<double>("calibration_speed");
   for (double v : {0.15, v_cal, 0.4}) {
-    const double drift = autocal::test::straightDriftM(robot, params, v);
+    const double drift = autocal::sim::straightDriftM(robot, params, v);
     std::cout << "drift over 2 m at " << v << " m/s: " << drift * 100 << " cm" << std::endl;
     EXPECT_LE(drift, v == v_cal ? testParam<double>("max_drift_calibration_m")
                                 : testParam<double>("max_drift_other_m"))

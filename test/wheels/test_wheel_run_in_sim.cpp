@@ -13,6 +13,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/straight_drift.h"
 #include "autocal/sim/floor_truth.h"
 #include "autocal/wheels/wheel_replay.h"
 #include "support/camera_mounts.h"
@@ -96,7 +97,7 @@ Outcome calibrateAndValidate(const sim::RobotConfig& robot, const sim::WorldConf
   out.run = test::runWheelsInSim(robot, world, run, so);
   if (!out.run.done) return out;
   for (double v : {0.15, 0.25, 0.4})
-    out.drift_m.push_back({v, test::straightDriftM(robot, out.run.result, v)});
+    out.drift_m.push_back({v, sim::straightDriftM(robot, out.run.result, v)});
   const wheels::KinematicsParams& r = out.run.result;
   std::printf(
       "trim %.5f deadband %.4f/%.4f, %zu drives, sim %.1f s, wall %.1f s, %d frames; end (%.3f, "
@@ -109,7 +110,7 @@ Outcome calibrateAndValidate(const sim::RobotConfig& robot, const sim::WorldConf
   before.trim = 0;
   before.deadband_left = before.deadband_right = 0;
   std::printf(" (before, trim 0: %.1f cm at 0.25 m/s)\n",
-              test::straightDriftM(robot, before, 0.25) * 100);
+              sim::straightDriftM(robot, before, 0.25) * 100);
   return out;
 }
 
@@ -266,7 +267,7 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   EXPECT_LT(x.sigma.height_m, 0.002);
   EXPECT_LT(x.sigma.pitch_rad, 0.3 * deg);
   EXPECT_LT(x.sigma.yaw_rad, 0.5 * deg);
-  EXPECT_LE(test::straightDriftM(robot, r.result, 0.25), 0.02);
+  EXPECT_LE(sim::straightDriftM(robot, r.result, 0.25), 0.02);
 }
 
 INSTANTIATE_TEST_SUITE_P(FourMounts, WheelRunMountInSim, ::testing::Range(0, test::kCameraMounts));
@@ -356,7 +357,7 @@ void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess,
   EXPECT_NEAR(r.kinematics.trim, live.run.result.trim, 0.002);
   EXPECT_NEAR(r.kinematics.deadband_left, live.run.result.deadband_left, 0.003);
   EXPECT_NEAR(r.kinematics.deadband_right, live.run.result.deadband_right, 0.003);
-  EXPECT_LE(test::straightDriftM(robot, r.kinematics, 0.25), 0.02);
+  EXPECT_LE(sim::straightDriftM(robot, r.kinematics, 0.25), 0.02);
 }
 
 TEST(WheelReplayInSim, DefaultRobot) {

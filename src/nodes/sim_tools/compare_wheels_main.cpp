@@ -13,6 +13,7 @@
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/straight_drift.h"
 #include "autocal/wheels/kinematics.h"
 
 namespace {
@@ -56,6 +57,12 @@ int run(int argc, char** argv) {
       autocal::wheels::speedRatioFromTrim(found.trim, found.gain), k_true);
   row("deadband_left", before.deadband_left, found.deadband_left, robot.deadband);
   row("deadband_right", before.deadband_right, found.deadband_right, robot.deadband);
+  // Duckietown's acceptance test on the true robot: 2 m straight at three speeds.
+  for (const double v : {0.15, 0.25, 0.4}) {
+    std::printf("drift over 2 m at %.2f m/s: before %.1f cm, calibrated %.1f cm\n", v,
+                100 * autocal::sim::straightDriftM(robot, before, v),
+                100 * autocal::sim::straightDriftM(robot, found, v));
+  }
   return 0;
 }
 

@@ -1,0 +1,180 @@
+#!/usr/bin/python3
+"""`make robustness`: the whole calibration in robot mode over a matrix of simulated robots.
+
+Draws N robots (seeded) from sim/config/robot_real.yaml: intrinsics within the real fleet's ranges
+(fx 317-361 px, cx 300-336, cy 210-256, k1 -0.32..-0.25, k2 0.04..0.09, p1 and p2 within
++-0.005), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
+backward gains and a gain drift within their documented ranges, and the transport of
+robot_real.yaml. Each robot runs `rosrun autocal calibrate_sim` (camera and wheel stages; with
+--odometry also the UAH stage) at each real-time factor given (1: a robot's own computer; 3: one
+three times slower), on its own master. From the simulator's truth (compare_camera,
+compare_wheels) it reports per run the result and reason, fx/fy error, the whole-image
+projection difference, the trim error and the drift over 2 m, and prints Markdown tables with the
+distributions (median, 95th percentile, worst) for BENCHMARKS.md.
+
+    /usr/bin/python3 scripts/robustness.py [--robots 20] [--rtf 1 3] [--seed 1] [--odometry]
+                                           [--out build/robustness]
+
+Needs `make build` and the devel space sourced (the Makefile's robustness target does both).
+"""
+import argparse
+import os
+import random
+import re
+import statistics
+import subprocess
+import sys
+import time
+
+import yaml
+
+PKG = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
+
+
+def draw_robot(base, rng):
+    """A robot of the real fleet's kind: base (robot_real.yaml) with drawn values."""
+    r = yaml.safe_load(yaml.safe_dump(base))
+    cam = r["camera"]
+    cam["fx"] = round(rng.uniform(317, 361), 2)
+    cam["fy"] = round(cam["fx"] * rng.uniform(0.995, 1.015), 2)
+    cam["cx"] = round(rng.uniform(300, 336), 2)
+    cam["cy"] = round(rng.uniform(210, 256), 2)
+    cam["distortion_model"] = "plumb_bob"
+    cam["distortion_coefficients"] = [round(rng.uniform(-0.32, -0.25), 4),
+                                      round(rng.uniform(0.04, 0.09), 4),
+                                      round(rng.uniform(-0.005, 0.005), 5),
+                                      round(rng.uniform(-0.005, 0.005), 5), 0.0]
+    # A trim t makes right/left = k = (1 + t) / (1 - t) at gain 1; the wheels' radii differ a
+    # little, the motors' gains make up the rest.
+    trim = rng.uniform(-0.09, 0.08)
+    k = (1 + trim) / (1 - trim)
+    r["wheel_radius_left"] = round(0.0318 * rng.uniform(0.99, 1.01), 5)
+    r["wheel_radius_right"] = round(0.0318 * rng.uniform(0.99, 1.01), 5)
+    r["motor_gain_left"] = 1.0
+    r["motor_gain_right"] = round(r["wheel_radius_left"] / (k * r["wheel_radius_right"]), 5)
+    r["wheelbase"] = round(rng.uniform(0.098, 0.106), 4)
+    r["deadband"] = round(rng.uniform(0.05, 0.11), 3)
+    r["breakaway_duty_left"] = round(r["deadband"] + rng.uniform(0.0, 0.04), 3)
+    r["breakaway_duty_right"] = round(r["deadband"] + rng.uniform(0.0, 0.04), 3)
+    r["backward_gain_ratio_left"] = round(rng.uniform(0.95, 1.05), 3)
+    r["backward_gain_ratio_right"] = round(rng.uniform(0.95, 1.05), 3)
+    r["gain_drift_per_min"] = round(rng.uniform(-0.01, 0.0), 4)
+    return r
+
+
+def figures(pattern, text):
+    m = re.search(pattern, text, re.M)
+    return [float(x) for x in m.groups()] if m else None
+
+
+def judge(robot_file, root, veh):
+    """The run's files against the truth: a dict of figures (missing ones absent)."""
+    out = {}
+    camera = os.path.join(root, "camera_intrinsic", veh + ".yaml")
+    kinematics = os.path.join(root, "kinematics", veh + ".yaml")
+    if os.path.isfile(camera):
+        text = subprocess.run(["rosrun", "autocal", "compare_camera", "--robot-config", robot_file,
+                               "--calibration", camera], stdout=subprocess.PIPE, text=True).stdout
+        fx = figures(r"^fx\s+\S+\s+\S+\s+\S+\s+([-+0-9.]+)%", text)
+        fy = figures(r"^fy\s+\S+\s+\S+\s+\S+\s+([-+0-9.]+)%", text)
+        pd = figures(r"RMS ([0-9.]+) px, worst ([0-9.]+) px; upper half ([0-9.]+) px, "
+                     r"lower half ([0-9.]+) px", text)
+        if fx and fy and pd:
+            out.update(fx_pct=abs(fx[0]), fy_pct=abs(fy[0]), proj_rms_px=pd[0],
+                       proj_worst_px=pd[1], proj_lower_px=pd[3])
+    if os.path.isfile(kinematics):
+        text = subprocess.run(["rosrun", "autocal", "compare_wheels", "--robot-config", robot_file,
+                               "--calibration", kinematics], stdout=subprocess.PIPE,
+                              text=True).stdout
+        trim = figures(r"^trim\s+\S+\s+\S+\s+\S+\s+([-+0-9.]+)", text)
+        if trim:
+            out["trim_err"] = abs(trim[0])
+        for v in ("0.15", "0.25", "0.40"):
+            d = figures(r"drift over 2 m at %s m/s: before [-0-9.na]+ cm, calibrated ([0-9.]+) cm"
+                        % v, text)
+            if d:
+                out["drift_%s_cm" % v] = d[0]
+    return out
+
+
+def run_one(robot_file, veh, rtf, root, port, odometry):
+    env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
+    cmd = ["rosrun", "autocal", "calibrate_sim", "veh:=" + veh, "robot_config:=" + robot_file,
+           "real_time_factor:=%g" % rtf, "calibration_root:=" + root,
+           "odometry:=" + ("true" if odometry else "false")]
+    start = time.time()
+    with open(os.path.join(root + ".log"), "w") as log:
+        proc = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, timeout=3600)
+    wall_s = time.time() - start
+    result, failure = "no summary", ""
+    summary = os.path.join(root, "report", veh, "summary.yaml")
+    if os.path.isfile(summary):
+        with open(summary) as f:
+            s = yaml.safe_load(f)
+        result, failure = s.get("result", "?"), s.get("failure", "")
+    return dict(rc=proc.returncode, result=result, failure=failure, wall_s=wall_s)
+
+
+def distribution(values):
+    if not values:
+        return "-"
+    v = sorted(values)
+    p95 = v[min(len(v) - 1, int(round(0.95 * (len(v) - 1))))]
+    return "%.3g / %.3g / %.3g" % (statistics.median(v), p95, v[-1])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--robots", type=int, default=20)
+    ap.add_argument("--rtf", type=float, nargs="+", default=[1.0, 3.0])
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--odometry", action="store_true")
+    ap.add_argument("--out", default=os.path.join(PKG, "build", "robustness"))
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    with open(os.path.join(PKG, "sim", "config", "robot_real.yaml")) as f:
+        base = yaml.safe_load(f)
+    rows = []
+    for i in range(1, a.robots + 1):
+        robot = draw_robot(base, random.Random(a.seed * 1000 + i))
+        robot_file = os.path.join(a.out, "robot%d.yaml" % i)
+        with open(robot_file, "w") as f:
+            yaml.safe_dump(robot, f, sort_keys=False)
+        for rtf in a.rtf:
+            veh = "robot%d" % i
+            root = os.path.join(a.out, "rtf%g" % rtf, veh)
+            subprocess.run(["rm", "-rf", root])
+            os.makedirs(root)
+            r = run_one(robot_file, veh, rtf, root, 11700 + i, a.odometry)
+            r.update(judge(robot_file, root, veh), robot=veh, rtf=rtf)
+            rows.append(r)
+            print("%s rtf %g: %s %s (%.0f s) %s" % (veh, rtf, r["result"], r["failure"],
+                                                     r["wall_s"], {k: v for k, v in r.items()
+                                                                   if k.endswith(("pct", "px", "err", "cm"))}),
+                  file=sys.stderr, flush=True)
+    print("## Robustness: the whole calibration in robot mode\n")
+    print("%d robots drawn from `sim/config/robot_real.yaml` with seed %d (`/usr/bin/python3 "
+          "scripts/robustness.py --robots %d --seed %d`); per real-time factor: runs that "
+          "succeeded, then median / 95th percentile / worst.\n" % (a.robots, a.seed, a.robots,
+                                                                  a.seed))
+    keys = [("fx_pct", "fx error %"), ("fy_pct", "fy error %"),
+            ("proj_rms_px", "projection RMS px"), ("proj_worst_px", "projection worst px"),
+            ("proj_lower_px", "lower half RMS px"), ("trim_err", "trim error"),
+            ("drift_0.15_cm", "drift 0.15 m/s cm"), ("drift_0.25_cm", "drift 0.25 m/s cm"),
+            ("drift_0.40_cm", "drift 0.4 m/s cm"), ("wall_s", "wall s")]
+    print("| real-time factor | succeeded | " + " | ".join(k[1] for k in keys) + " |")
+    print("|---" * (len(keys) + 2) + "|")
+    for rtf in a.rtf:
+        runs = [r for r in rows if r["rtf"] == rtf]
+        ok = [r for r in runs if r["result"] == "success"]
+        cells = [distribution([r[k] for r in ok if k in r]) for k, _ in keys]
+        print("| %g | %d of %d | %s |" % (rtf, len(ok), len(runs), " | ".join(cells)))
+    failed = [r for r in rows if r["result"] != "success"]
+    if failed:
+        print("\nFailures:\n")
+        for r in failed:
+            print("* %s at %g: %s" % (r["robot"], r["rtf"], r["failure"] or r["result"]))
+
+
+if __name__ == "__main__":
+    main()

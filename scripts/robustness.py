@@ -90,10 +90,11 @@ def judge(robot_file, root, veh):
         if trim:
             out["trim_err"] = abs(trim[0])
         for v in ("0.15", "0.25", "0.40"):
-            d = figures(r"drift over 2 m at %s m/s: before [-0-9.na]+ cm, calibrated ([0-9.]+) cm"
-                        % v, text)
-            if d:
-                out["drift_%s_cm" % v] = d[0]
+            m = re.search(r"drift over 2 m at %s m/s: before \S+ cm, calibrated (\S+) cm" % v,
+                          text)
+            if m:  # nan: the robot never came 2 m along the line (it turned away or stalled)
+                d = float(m.group(1))
+                out["drift_%s_cm" % v] = float("inf") if d != d else d
     return out
 
 

@@ -114,12 +114,18 @@ double boardCornerRms(const sim::RobotConfig& robot, const sim::WorldConfig& wor
 // itself gives 0 everywhere; a focal length off by dfx moves pixel u by dfx (u - cx) / fx; a
 // principal point off by dcy moves every pixel by dcy; a distortion that only the image's corners
 // feel leaves the centre alone.
+/// The default robot's pinhole (its true fx, fy, cx, cy), no distortion.
+sim::Intrinsics defaultPinhole() {
+  sim::Intrinsics in;
+  in.fx = 318;
+  in.fy = 320.5;
+  in.cx = 325.4;
+  in.cy = 236.8;
+  return in;
+}
+
 TEST(ProjectionDifference, KnownModelErrors) {
-  sim::Intrinsics lens;
-  lens.fx = 318;
-  lens.fy = 320.5;
-  lens.cx = 325.4;
-  lens.cy = 236.8;
+  sim::Intrinsics lens = defaultPinhole();
   lens.distortion_coefficients = {-0.27, 0.065, 0.0011, -0.0007, 0.001};
   const sim::ProjectionDifference same = sim::projectionDifference(lens, lens);
   EXPECT_EQ(same.pixels, 80 * 60);
@@ -154,11 +160,7 @@ TEST(ProjectionDifference, KnownModelErrors) {
 }
 
 TEST(SimRenderer, CameraModelMatchesOpenCvProjection) {
-  sim::Intrinsics in;
-  in.fx = 318;
-  in.fy = 320.5;
-  in.cx = 325.4;
-  in.cy = 236.8;
+  sim::Intrinsics in = defaultPinhole();
   const std::vector<std::pair<sim::DistortionModel, std::vector<double>>> models = {
       {sim::DistortionModel::kPlumbBob, {-0.27, 0.065, 0.0011, -0.0007, 0.001}},
       {sim::DistortionModel::kRationalPolynomial, {0.3, -0.1, 0.001, -0.002, 0.01, 0.6, -0.05, 0.02}},

@@ -200,7 +200,7 @@ int main(int argc, char** argv) {
     std::vector<double> ms_blur[2];
     {
       Renderer blur_today(robot.camera, world, today), blur_now(robot.camera, world, options);
-      const Renderer* renderers[2] = {&blur_today, &blur_now};
+      Renderer* renderers[2] = {&blur_today, &blur_now};
       std::mt19937_64 rng(5);
       for (int i = 0; i < 22; ++i) {
         std::vector<Pose2> poses;

@@ -3,6 +3,7 @@ target_sources(autocal_sim_core PRIVATE
   sim/src/config.cpp
   sim/src/camera_model.cpp
   sim/src/scene.cpp
+  sim/src/ray_tracer.cpp
   sim/src/renderer.cpp
   sim/src/simulation.cpp
   sim/src/transport.cpp

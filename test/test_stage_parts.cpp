@@ -1,5 +1,5 @@
 // The parts the driving stages share: EncoderTracker (sensors.h), SettleRule, MotionClock,
-// followRate, stallOf (motion.h) and StatusThrottle.
+// RunWatch, followRate, stallOf (motion.h) and StatusThrottle.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -101,6 +101,25 @@ TEST(StallOf, CountsFromTheLaterOfTheWheelsLastChangeAndTheMotionsStart) {
   EXPECT_EQ(s,
             "the right wheel has not moved for 1.1 s at duty 0.3 (the robot stalled: blocked, "
             "or a motor fault)");
+}
+
+TEST(RunWatch, ClampsTheStepAndFailsOnTimeThenOnMissingThenOnSilentEncoders) {
+  RunWatch w;
+  EncoderTracker e;
+  EXPECT_DOUBLE_EQ(w.tick(10.0), 0.0);  // the clock starts at the first update
+  EXPECT_NEAR(w.tick(10.05), 0.05, 1e-12);
+  EXPECT_DOUBLE_EQ(w.tick(11.0), 0.2);  // one late update is not one huge step
+  EXPECT_DOUBLE_EQ(w.elapsedS(), 1.0);
+  // No reading yet: the stage waits until encoder_timeout_s from its start.
+  EXPECT_EQ(w.failure(11.0, e, true, 0, 3.0, "UAH run", "spin"), "");
+  EXPECT_EQ(w.failure(13.5, e, true, 0, 3.0, "UAH run", "spin"), "no encoder readings");
+  e.add(11.0, 0, 0);
+  EXPECT_EQ(w.failure(13.5, e, true, 0, 3.0, "UAH run", "spin"), "");
+  EXPECT_EQ(w.failure(14.5, e, false, 0, 3.0, "UAH run", "spin"), "");  // standing: no reading due
+  EXPECT_EQ(w.failure(14.5, e, true, 0, 3.0, "UAH run", "spin"),
+            "the encoders went silent for 3.5 s");
+  EXPECT_EQ(w.failure(14.5, e, true, 4.0, 3.0, "UAH run", "spin"),
+            "the UAH run took longer than max_duration_s (4 s) in spin");
 }
 
 TEST(StatusThrottle, PublishesAKeyChangeAtOnceAndTheRestAtTheRate) {

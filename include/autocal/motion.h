@@ -50,6 +50,34 @@ class MotionClock {
   double start_s_ = 0.0;
 };
 
+/// The checks at the top of every update of a run that drives on its encoders alone (UahRun,
+/// UmbmarkRun): the run's clock from its first update, each update's time step, and the failures
+/// of time and encoders.
+class RunWatch {
+ public:
+  /// The update at `now_s`: the run's clock starts at the first. Returns the time since the
+  /// previous update [s], clamped to 0..`max_step_s` (a stalled caller must not make one huge
+  /// control step).
+  double tick(double now_s, double max_step_s = 0.2);
+  bool started() const { return started_; }
+  /// Time since the first update, at the last one [s]; 0 before it.
+  double elapsedS() const { return started_ ? last_s_ - start_s_ : 0.0; }
+  /// The last update's time [s].
+  double lastS() const { return last_s_; }
+
+  /// Why the run must fail at `now_s`, or empty: it ran longer than `max_duration_s` (> 0; "the
+  /// <what> took longer than max_duration_s (T s) in <where>"), no encoder reading came within
+  /// `encoder_timeout_s` of its start ("no encoder readings"), or, while `moving`, none came for
+  /// `encoder_timeout_s` ("the encoders went silent for T s").
+  std::string failure(double now_s, const EncoderTracker& encoders, bool moving,
+                      double max_duration_s, double encoder_timeout_s, const std::string& what,
+                      const std::string& where) const;
+
+ private:
+  bool started_ = false;
+  double start_s_ = 0.0, last_s_ = 0.0;
+};
+
 /// A wheel's duty magnitude after `dt_s` of integral control on its pulse-rate error: the robot's
 /// deadbands and motor gains are unknown to the stage. Clamped to 0..max_duty.
 double followRate(double duty, double measured_rate, double target_rate, double gain_per_s,

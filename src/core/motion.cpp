@@ -6,6 +6,31 @@
 
 namespace autocal {
 
+double RunWatch::tick(double now_s, double max_step_s) {
+  if (!started_) {
+    started_ = true;
+    start_s_ = last_s_ = now_s;
+  }
+  const double dt = std::clamp(now_s - last_s_, 0.0, max_step_s);
+  last_s_ = now_s;
+  return dt;
+}
+
+std::string RunWatch::failure(double now_s, const EncoderTracker& encoders, bool moving,
+                              double max_duration_s, double encoder_timeout_s,
+                              const std::string& what, const std::string& where) const {
+  if (max_duration_s > 0 && now_s - start_s_ > max_duration_s) {
+    return "the " + what + " took longer than max_duration_s (" + formatNumber(max_duration_s, 4) +
+           " s) in " + where;
+  }
+  if (!encoders.valid()) {
+    return now_s - start_s_ > encoder_timeout_s ? "no encoder readings" : "";
+  }
+  if (moving && now_s - encoders.stampS() > encoder_timeout_s)
+    return "the encoders went silent for " + formatNumber(now_s - encoders.stampS(), 3) + " s";
+  return {};
+}
+
 double followRate(double duty, double measured_rate, double target_rate, double gain_per_s,
                   double dt_s, double max_duty) {
   const double error = 1.0 - measured_rate / target_rate;

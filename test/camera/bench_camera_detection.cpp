@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
   const autocal::sim::WorldConfig world = autocal::sim::loadWorldConfig(sim_dir + "world.yaml");
   autocal::sim::RenderOptions render;
   render.noise_sigma = robot.camera.noise_sigma;
-  const autocal::sim::Renderer renderer(robot.camera, world, render);
+  autocal::sim::Renderer renderer(robot.camera, world, render);
   std::mt19937_64 rng(1);
   std::vector<cv::Mat> sim_frames;
   for (int i = 0; i < 36; ++i) {

@@ -25,7 +25,7 @@ TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
   sim::RenderOptions render;
   render.supersampling = robot.camera.supersampling;
   render.noise_sigma = robot.camera.noise_sigma;
-  const sim::Renderer renderer(robot.camera, world, render);
+  sim::Renderer renderer(robot.camera, world, render);
 
   const sim::ChessboardConfig& board = world.chessboards.front();
   camera::BoardSpec spec;

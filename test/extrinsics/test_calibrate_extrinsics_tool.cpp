@@ -55,7 +55,7 @@ class CalibrateExtrinsicsTool : public ::testing::Test {
     sim::RenderOptions o;
     o.supersampling = robot_.camera.supersampling;
     o.noise_sigma = robot_.camera.noise_sigma;
-    const sim::Renderer renderer(robot_.camera, world, o);
+    sim::Renderer renderer(robot_.camera, world, o);
     std::mt19937_64 rng(3);
     const fs::path p = dir_ / name;
     cv::imwrite(p.string(), renderer.render({world.robot_start}, rng));

@@ -36,7 +36,7 @@ cv::Mat renderStill(const sim::RobotConfig& robot, const sim::WorldConfig& world
   sim::RenderOptions render;
   render.supersampling = robot.camera.supersampling;
   render.noise_sigma = robot.camera.noise_sigma;
-  const sim::Renderer renderer(robot.camera, world, render);
+  sim::Renderer renderer(robot.camera, world, render);
   std::mt19937_64 rng(7);
   cv::Mat image = renderer.render({world.robot_start}, rng);
   if (const char* dir = std::getenv("AUTOCAL_DEBUG_DIR"))

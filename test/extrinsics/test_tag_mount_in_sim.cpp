@@ -42,7 +42,7 @@ Recorded record(const sim::RobotConfig& robot, uint64_t noise_seed = 11) {
   sim::RenderOptions render;
   render.supersampling = robot.camera.supersampling;
   render.noise_sigma = robot.camera.noise_sigma;
-  const sim::Renderer renderer(robot.camera, world, render);
+  sim::Renderer renderer(robot.camera, world, render);
   markers::TagDetectorOptions detector_options;
   detector_options.tag_size_m = 0.065;
   markers::TagDetector detector(detector_options, robot.camera.truth);

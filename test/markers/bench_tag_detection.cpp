@@ -141,7 +141,7 @@ int main(int argc, char** argv) {
   sim::RenderOptions ro;
   ro.supersampling = robot.camera.supersampling;
   ro.noise_sigma = robot.camera.noise_sigma;
-  const sim::Renderer renderer(robot.camera, world, ro);
+  sim::Renderer renderer(robot.camera, world, ro);
   const CameraIntrinsics& K = robot.camera.truth;
   const sim::CameraModel lens(K);
 

@@ -27,7 +27,7 @@ LanePassInSim LaneInSim::runPass(wheels::LaneRefiner& refiner, const Pose2D& sta
   render.supersampling = robot_.camera.supersampling;
   render.noise_sigma = robot_.camera.noise_sigma;
   render.noise_seed = options_.seed + static_cast<uint64_t>(clock_s_ * 1000);
-  const sim::Renderer renderer(robot_.camera, world, render);
+  sim::Renderer renderer(robot_.camera, world, render);
 
   LanePassInSim out;
   const size_t passes_before = refiner.passes().size();

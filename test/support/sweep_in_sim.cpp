@@ -21,7 +21,7 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
   render.supersampling = robot.camera.supersampling;
   render.noise_sigma = robot.camera.noise_sigma;
   render.noise_seed = options.seed;
-  const sim::Renderer renderer(robot.camera, world, render);
+  sim::Renderer renderer(robot.camera, world, render);
   std::mt19937_64 rng(options.seed);
 
   SweepInSim out;

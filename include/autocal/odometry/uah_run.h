@@ -157,7 +157,7 @@ class UahRun {
   double pulsesPerRound() const { return online_ppr_; }
   /// 0..1, a rough share of the run done.
   double progress() const;
-  double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
+  double elapsedS() const { return watch_.elapsedS(); }
   /// One line: experiment, counts, last figures.
   std::string describe() const;
 
@@ -196,8 +196,7 @@ class UahRun {
   std::string failure_;
   UahResult result_;
 
-  bool started_ = false;
-  double start_s_ = 0, last_now_s_ = 0;
+  RunWatch watch_;  ///< the run's clock and its time and encoder checks
   EncoderTracker encoders_;
   double last_encoder_arrival_s_ = 0, last_range_arrival_s_ = 0;
   std::vector<Sample> history_;  // the current motion's encoder samples
@@ -224,7 +223,7 @@ class UahRun {
   // straight
   int straight_dir_ = 1;
   int accepted_ = 0, attempts_ = 0;
-  double heading_integral_ = 0, last_update_s_ = 0;
+  double heading_integral_ = 0;
   double max_heading_dev_rad_ = 0;
   bool awaiting_length_ = false;
   double awaiting_since_s_ = 0;

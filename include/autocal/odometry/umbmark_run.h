@@ -126,7 +126,7 @@ class UmbmarkRun {
   const Pose2D& computedPose() const { return odometry_.pose(); }
   /// 0..1, the share of the runs done.
   double progress() const;
-  double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
+  double elapsedS() const { return watch_.elapsedS(); }
   /// One line: direction, run, leg, last figures.
   std::string describe() const;
 
@@ -154,8 +154,7 @@ class UmbmarkRun {
   UmbmarkResult result_;
   std::vector<ReturnError> cw_, ccw_;
 
-  bool started_ = false;
-  double start_s_ = 0, last_now_s_ = 0, last_update_s_ = 0;
+  RunWatch watch_;  ///< the run's clock and its time and encoder checks
   EncoderTracker encoders_;
   struct Sample {
     double stamp_s, left, right;

@@ -423,7 +423,7 @@ void UahRun::setStraightLength(double length_m) {
   }
   // The next run goes back along the same line (a rejected one is repeated that way too).
   straight_dir_ = -straight_dir_;
-  startStraight(last_now_s_);
+  startStraight(watch_.lastS());
 }
 
 void UahRun::finish() {
@@ -441,23 +441,12 @@ void UahRun::finish() {
 
 WheelDuties UahRun::update(double now_s) {
   if (done() || failed()) return {};
-  if (!started_) {
-    started_ = true;
-    start_s_ = last_update_s_ = now_s;
-  }
-  const double dt = std::clamp(now_s - last_update_s_, 0.0, 0.2);
-  last_update_s_ = last_now_s_ = now_s;
-  if (options_.max_duration_s > 0 && now_s - start_s_ > options_.max_duration_s) {
-    fail("the UAH run took longer than max_duration_s (" +
-         formatNumber(options_.max_duration_s, 4) + " s) in " + name(experiment_));
-  }
-  if (!encoders_.valid()) {
-    if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
-    return {};
-  }
-  if (motion_ != Motion::kNone && now_s - encoders_.stampS() > options_.encoder_timeout_s) {
-    fail("the encoders went silent for " + formatNumber(now_s - encoders_.stampS(), 3) + " s");
-  }
+  const double dt = watch_.tick(now_s);
+  const std::string late = watch_.failure(now_s, encoders_, motion_ != Motion::kNone,
+                                          options_.max_duration_s, options_.encoder_timeout_s,
+                                          "UAH run", name(experiment_));
+  if (!late.empty()) fail(late);
+  if (!encoders_.valid()) return {};
   if (experiment_ == UahExperiment::kWait) startTurn(UahExperiment::kPivotLeftStopped, now_s);
   if (awaiting_length_) {
     if (options_.length_timeout_s > 0 && now_s - awaiting_since_s_ > options_.length_timeout_s) {

@@ -233,7 +233,7 @@ void UmbmarkRun::setReturnError(const ReturnError& error) {
     finish();
     return;
   }
-  startRun(last_now_s_);
+  startRun(watch_.lastS());
 }
 
 void UmbmarkRun::finish() {
@@ -250,23 +250,12 @@ void UmbmarkRun::finish() {
 
 WheelDuties UmbmarkRun::update(double now_s) {
   if (done() || failed()) return {};
-  if (!started_) {
-    started_ = true;
-    start_s_ = last_update_s_ = now_s;
-  }
-  const double dt = std::clamp(now_s - last_update_s_, 0.0, 0.2);
-  last_update_s_ = last_now_s_ = now_s;
-  if (options_.max_duration_s > 0 && now_s - start_s_ > options_.max_duration_s) {
-    fail("the UMBmark run took longer than max_duration_s (" +
-         formatNumber(options_.max_duration_s, 4) + " s) in " + name(phase_));
-  }
-  if (!encoders_.valid()) {
-    if (now_s - start_s_ > options_.encoder_timeout_s) fail("no encoder readings");
-    return {};
-  }
-  if (motion_ != Motion::kNone && now_s - encoders_.stampS() > options_.encoder_timeout_s) {
-    fail("the encoders went silent for " + formatNumber(now_s - encoders_.stampS(), 3) + " s");
-  }
+  const double dt = watch_.tick(now_s);
+  const std::string late = watch_.failure(now_s, encoders_, motion_ != Motion::kNone,
+                                          options_.max_duration_s, options_.encoder_timeout_s,
+                                          "UMBmark run", name(phase_));
+  if (!late.empty()) fail(late);
+  if (!encoders_.valid()) return {};
   if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
   if (awaiting_error_ || awaiting_all_) {
     if (options_.error_timeout_s > 0 && now_s - awaiting_since_s_ > options_.error_timeout_s) {

@@ -13,7 +13,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
-#include "autocal/report/run_report.h"
+#include "autocal/report/summary.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace autocal {

@@ -6,6 +6,10 @@
 // corners disagree (an edge crosses it) it is supersampled on an s x s grid, so that corners and
 // edges land where the geometry puts them to a small fraction of a pixel. Several robot poses
 // spread over the exposure are averaged (motion blur); Gaussian noise is added last.
+//
+// The rays are traced through tracing::RayTracer (sim/src/ray_tracer.h). A frame reuses the
+// renderer's buffers (the corners' colours, the last still image, the blur accumulator), so
+// rendering changes the renderer and is not const: one renderer per thread.
 #pragma once
 
 #include <Eigen/Core>
@@ -57,7 +61,10 @@ struct RenderOptions {
   bool edge_samples_on_plane = true;
 };
 
-class Scene;
+namespace tracing {
+class RayTracer;
+struct TraceView;
+}  // namespace tracing
 namespace detail {
 /// A linear colour, 0..255 per channel, in OpenCV's BGR order.
 struct Rgb {
@@ -75,10 +82,10 @@ class Renderer {
   /// The image (CV_8UC3, BGR) seen from the average of these robot poses over the exposure (one
   /// pose: a still image). With several poses (motion blur) the sub-frames are not anti-aliased:
   /// their average blurs the edges far more than a pixel, and it keeps blurred frames cheap. `rng` draws the noise offsets, so a seeded rng gives the same image.
-  cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng) const;
+  cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng);
 
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
-  cv::Mat renderExact(const Pose2& pose) const;
+  cv::Mat renderExact(const Pose2& pose);
 
   /// Blurred frames rendered at half resolution (see RenderOptions::blur_half_res_poses).
   uint64_t blurredFramesHalfRes() const { return blurred_half_res_; }
@@ -99,15 +106,17 @@ class Renderer {
   /// blurred frame, image sides multiples of 4), the 4 x 4 blocks it blends add their corners'
   /// colours to block_sums_ instead.
   void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
-                  float* accumulate) const;
+                  float* accumulate);
   /// The noiseless linear image (CV_32FC3) of these poses' average: a buffer of this renderer
   /// (the last still frame's image, or the blur accumulator), valid until the next call.
-  const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses) const;
+  const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses);
 
   CameraConfig config_;
   CameraModel camera_;
   RenderOptions options_;
-  std::unique_ptr<Scene> scene_;
+  std::unique_ptr<tracing::RayTracer> tracer_;  ///< the world, as surfaces a ray can hit
+  /// The tracer's bins for the pose being rendered (RayTracer::prepare), rebuilt per pose.
+  std::unique_ptr<tracing::TraceView> view_;
   int width_ = 0, height_ = 0;
   // Pixel-corner grid ((width+1) x (height+1)): ray direction in the robot frame, its azimuth bin.
   std::vector<Eigen::Vector3f> corner_dirs_;
@@ -115,27 +124,26 @@ class Renderer {
   std::vector<uint8_t> corner_valid_;
   std::vector<uint8_t> block4_valid_;  ///< per 4 x 4 pixel block: all its corners are valid rays
   // Per-frame buffers of the corners' colours (BGR) and surface ids, kept between frames.
-  mutable std::vector<detail::Rgb> corner_color_;
-  mutable std::vector<int> corner_id_;
-  mutable std::vector<Eigen::Vector2f> corner_plane_;  // where a corner's ray meets its surface
-  mutable std::vector<detail::Rgb>
-      block_sums_;                             // blurred frame: per 4 x 4 block, its corners' sums
-  mutable std::vector<uint8_t> block_summed_;  // ... and whether any pose blended it
-  mutable std::vector<uint32_t> traced_;  // frame number in which a corner was traced
-  mutable uint32_t frame_ = 0;
+  std::vector<detail::Rgb> corner_color_;
+  std::vector<int> corner_id_;
+  std::vector<Eigen::Vector2f> corner_plane_;  // where a corner's ray meets its surface
+  std::vector<detail::Rgb> block_sums_;  // blurred frame: per 4 x 4 block, its corners' sums
+  std::vector<uint8_t> block_summed_;     // ... and whether any pose blended it
+  std::vector<uint32_t> traced_;          // frame number in which a corner was traced
+  uint32_t frame_ = 0;
   std::vector<Eigen::Vector2f> sample_offsets_;  // sample positions within a pixel, in [0, 1)^2
   std::vector<float> noise_table_;
   double px_per_rad_ = 0;  ///< largest image motion [px] per radian a ray turns (finest pixel)
   // The last still frame: its noiseless image, pose and nearest traced surface [m].
-  mutable cv::Mat still_image_;
-  mutable Pose2 still_pose_;
-  mutable double still_nearest_m_ = 0;
-  mutable double nearest_m_ = 0;
-  mutable cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
-  mutable uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
+  cv::Mat still_image_;
+  Pose2 still_pose_;
+  double still_nearest_m_ = 0;
+  double nearest_m_ = 0;
+  cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
+  uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
   /// The same camera at half resolution, for blurred frames of many poses (null: not used).
   std::unique_ptr<Renderer> half_;
-  mutable cv::Mat upscaled_;
+  cv::Mat upscaled_;
 };
 
 }  // namespace sim

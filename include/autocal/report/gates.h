@@ -1,0 +1,54 @@
+// The report's view of the camera stage's audit (camera_intrinsic/<veh>_views/views.yaml) and the
+// run's gates: each stage's DONE, and the report's own gates on the figures. ROS-free.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "autocal/report/run_record.h"
+
+namespace autocal {
+namespace report {
+
+/// One view of the camera stage's audit (camera_intrinsic/<veh>_views/views.yaml).
+struct AuditView {
+  std::string image;  ///< path of its PNG
+  double rms_px = 0;
+  std::vector<cv::Point2f> corners;
+};
+struct ViewsAudit {
+  bool loaded = false;
+  cv::Size image_size;
+  double rms_px = 0;
+  std::vector<AuditView> views;
+};
+/// Reads the audit; throws ConfigError (file and line) on a malformed file, IoError when missing.
+ViewsAudit loadViewsAudit(const std::string& views_yaml);
+
+/// Share of the cells of a cols × rows grid over the image that hold a board corner of some view.
+double cornerCoverage(const ViewsAudit& audit, int cols = 8, int rows = 6);
+
+struct ReportOptions {
+  double wheel_radius_m = 0.0318;  ///< for the believed path (the kinematics file's, when written)
+  double baseline_m = 0.1;
+
+  /// Gates the report adds to the stages' own: the camera's RMS reprojection error and its corner
+  /// coverage of the image.
+  /// (The simulator's default world, boards at one height around the robot, gives about 46 %.)
+  double max_camera_rms_px = 1.0;
+  double min_corner_coverage = 0.4;
+};
+
+struct Gate {
+  std::string name;
+  bool passed = false;
+  std::string detail;
+};
+
+/// Each stage's DONE, and the report's own gates on the figures.
+std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
+                                const ReportOptions& options);
+
+}  // namespace report
+}  // namespace autocal

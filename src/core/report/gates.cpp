@@ -1,0 +1,80 @@
+// The camera stage's audit as the report reads it, and the run's gates; see gates.h.
+#include "autocal/report/gates.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include "autocal/errors.h"
+#include "autocal/io/format.h"
+#include "autocal/io/yaml_reader.h"
+
+namespace autocal {
+namespace report {
+
+namespace fs = std::filesystem;
+
+ViewsAudit loadViewsAudit(const std::string& views_yaml) {
+  if (!fs::exists(views_yaml)) throw IoError(views_yaml + ": no such file");
+  YamlMap root = YamlMap::loadFile(views_yaml);
+  ViewsAudit audit;
+  YamlMap image = root.map("image");
+  audit.image_size = {image.required<int>("width"), image.required<int>("height")};
+  audit.rms_px = root.optional<double>("rms_px", 0.0);
+  const fs::path dir = fs::path(views_yaml).parent_path();
+  for (YamlMap& v : root.optionalMapList("views")) {
+    AuditView view;
+    view.image = (dir / v.required<std::string>("image")).string();
+    view.rms_px = v.optional<double>("rms_px", 0.0);
+    for (const std::vector<double>& c : v.required<std::vector<std::vector<double>>>("corners")) {
+      if (c.size() != 2) v.fail("corners", "each corner must be [x, y]");
+      view.corners.emplace_back(static_cast<float>(c[0]), static_cast<float>(c[1]));
+    }
+    audit.views.push_back(std::move(view));
+  }
+  audit.loaded = true;
+  return audit;
+}
+
+double cornerCoverage(const ViewsAudit& audit, int cols, int rows) {
+  if (!audit.loaded || audit.image_size.width <= 0 || audit.image_size.height <= 0) return 0.0;
+  std::set<int> cells;
+  for (const AuditView& v : audit.views) {
+    for (const cv::Point2f& p : v.corners) {
+      const int c = static_cast<int>(p.x * cols / audit.image_size.width);
+      const int r = static_cast<int>(p.y * rows / audit.image_size.height);
+      if (c >= 0 && c < cols && r >= 0 && r < rows) cells.insert(r * cols + c);
+    }
+  }
+  return static_cast<double>(cells.size()) / (cols * rows);
+}
+
+std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
+                                const ReportOptions& options) {
+  std::vector<Gate> gates;
+  for (const StageRecord& s : record.stages) {
+    gates.push_back({s.stage + " stage", s.state == StageState::kDone,
+                     s.state == StageState::kFailed ? s.failure
+                     : s.state == StageState::kDone ? "done"
+                                                    : s.stateText()});
+  }
+  if (const StageRecord* camera = record.stage("camera")) {
+    if (camera->state == StageState::kDone) {
+      const double rms = camera->figure("rms_px");
+      gates.push_back({"camera RMS reprojection error", rms <= options.max_camera_rms_px,
+                       formatNumber(rms, 3) + " px (at most " +
+                           formatNumber(options.max_camera_rms_px, 3) + ")"});
+      const double coverage = cornerCoverage(audit);
+      gates.push_back({"camera corner coverage", coverage >= options.min_corner_coverage,
+                       formatNumber(100 * coverage, 3) + " % of the image (at least " +
+                           formatNumber(100 * options.min_corner_coverage, 3) + " %)"});
+    }
+  }
+  return gates;
+}
+
+}  // namespace report
+}  // namespace autocal

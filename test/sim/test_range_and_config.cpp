@@ -148,6 +148,7 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   EXPECT_GT(real.breakaway_duty_left, real.deadband);
   EXPECT_GT(real.breakaway_duty_right, real.deadband);
   EXPECT_LT(real.gain_drift_per_min, 0.0);
+  EXPECT_NE(real.backward_gain_ratio_left, 1.0);
   EXPECT_GE(real.transport.camera.latency_s, 0.05);
   EXPECT_GT(real.transport.camera.drop_probability, 0.0);
   EXPECT_GT(real.transport.encoders.latency_s, 0.0);

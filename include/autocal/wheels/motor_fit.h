@@ -1,7 +1,10 @@
 // Each wheel's duty → steady speed line from the wheel stage's drives (beyond paper 000: the
 // deadband). A drive's steady rate per wheel is the least-squares slope of its encoder ticks after
 // the motors' lag; the line through the drives' (duty, rate) points gives the duty at which the
-// wheel starts to turn. Shared by the live wheel stage (WheelRun) and its replay (WheelReplay), so
+// wheel starts to turn. A gear motor's speed per duty differs a few per cent between forward and
+// backward, its deadband hardly: once one direction's drives span two duties, each direction gets
+// its own slope through one shared offset (before, one line through every drive, which such a
+// motor bends). Shared by the live wheel stage (WheelRun) and its replay (WheelReplay), so
 // that a recording is fitted exactly as the robot fitted it.
 #pragma once
 
@@ -16,9 +19,12 @@ namespace wheels {
 /// One wheel's duty → steady speed line [rad/s per duty].
 struct MotorFit {
   bool valid = false;
-  double slope = 0;   ///< [rad/s]
-  double offset = 0;  ///< duty at which the wheel starts to turn [1]
+  double slope = 0;           ///< forward [rad/s]
+  double backward_slope = 0;  ///< [rad/s]; the forward slope until the directions are told apart
+  double offset = 0;          ///< duty at which the wheel starts to turn [1]
   int points = 0;
+  /// Each direction has its own slope (some direction's drives span two duties).
+  bool per_direction = false;
 };
 
 struct MotorFitOptions {
@@ -27,7 +33,7 @@ struct MotorFitOptions {
   /// Only drives whose steady part lasts this long enter the fit [s].
   double min_fit_window_s = 0.8;
   /// Drives whose rates make the fit; later drives leave it as it is.
-  int fit_drives = 6;
+  int fit_drives = 8;
   /// A drive off the other drives' line by more than this share is left out [1].
   double max_fit_residual = 0.015;
 };
@@ -36,12 +42,19 @@ struct MotorFitOptions {
 /// command started and stopped, and the (stamp [s], left ticks, right ticks) readings meanwhile.
 struct DriveRecord {
   WheelDuties duties;
+  bool backward = false;  ///< a drive back
   double start_s = 0, end_s = 0;
   std::vector<std::array<double, 3>> samples;
 };
 
 class MotorFitter {
  public:
+  /// One drive's point on one wheel's line: |duty|, steady rate [rad/s], the fit's weight.
+  struct Point {
+    double duty = 0, rate = 0, weight = 0;
+    bool backward = false;
+  };
+
   explicit MotorFitter(const MotorFitOptions& options) : options_(options) {}
 
   /// Adds a drive's point to both wheels' lines (unless the fit is frozen, the drive too short or
@@ -56,7 +69,7 @@ class MotorFitter {
 
  private:
   MotorFitOptions options_;
-  std::vector<std::array<double, 3>> points_left_, points_right_;  // duty, rate, weight
+  std::vector<Point> points_left_, points_right_;
   MotorFit left_, right_;
 };
 

@@ -57,8 +57,9 @@ struct WheelRunOptions {
   bool compensate_deadband = true;
   /// Speed of the forward drives that measure the trim [m/s] (the calibration speed).
   double drive_speed_mps = 0.25;
-  /// Speed of the drives back over the same distance [m/s]: with compensate_deadband another speed,
-  /// so that the two give each wheel's duty → speed line (else the drive speed).
+  /// Speed of every other drive back over the same distance [m/s] (the first one included; the
+  /// others at drive_speed_mps): with compensate_deadband another speed, so that each wheel's duty
+  /// → speed line has two duties in each direction's drives (else the drive speed).
   double back_speed_mps = 0.4;
   /// Length of one drive (paper §3.4: fixed time) [s], once the trim is close. An uncalibrated
   /// robot one wheel 20 % stronger would turn by a radian over such a drive and lose the tags, so a
@@ -73,9 +74,10 @@ struct WheelRunOptions {
   double motor_settle_s = 0.3;
   /// Only drives whose steady part lasts this long enter the motor fit [s].
   double min_fit_window_s = 0.8;
-  /// Drives (forward and back alternate, at the two speeds) whose rates make the fit; later drives
-  /// leave it as it is, so that the trim converges against fixed offsets.
-  int fit_drives = 6;
+  /// Drives (forward and back alternate; every other drive back at the other speed) whose rates
+  /// make the fit; later drives leave it as it is, so that the trim converges against fixed
+  /// offsets. Eight: each direction's line spans two duties after four drives back.
+  int fit_drives = 12;
   /// A drive whose steady rate is off the other drives' line by more than this share is left out
   /// of the fit (a bump, a slipping wheel) [1].
   double max_fit_residual = 0.015;
@@ -235,6 +237,9 @@ class WheelRun {
   void stopMotion(double now_s);
   void startMotionClock(double length_s);
   bool settled(double now_s) const;
+  /// The duties of a drive back at the speed these forward duties drive (the motor fit's slopes
+  /// per direction, once it has them; else the same).
+  WheelDuties backwardDuties(const WheelDuties& forward) const;
   void onMeasured(double now_s);
   void onSettled(double now_s);
   void recordDriveForFit();
@@ -274,6 +279,7 @@ class WheelRun {
   bool motion_clock_started_ = true;
   int drive_sign_ = 0;
   double drive_speed_mps_ = 0;
+  int back_drives_ = 0;  ///< drives back started
   KinematicsParams drive_params_;  // what the last forward drive drove with
   double forward_s_ = 0;           // its commanded length
   double drive_forward_m_ = 0;     // its distance by the encoders

@@ -9,24 +9,88 @@ namespace wheels {
 
 namespace {
 
-void fitLine(const std::vector<std::array<double, 3>>& pts, MotorFit& out) {
+constexpr double kMinSpread = 0.03;  ///< duties closer than this are one duty for the line
+constexpr double kMaxOffset = 0.6;   ///< a deadband beyond this is a failed fit
+
+using Points = std::vector<MotorFitter::Point>;
+
+/// One line through every point, whatever its direction.
+void fitLine(const Points& pts, MotorFit& out) {
   double lo = 1e9, hi = -1e9, m = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
   for (const auto& p : pts) {
-    const double w = p[2];
-    lo = std::min(lo, p[0]), hi = std::max(hi, p[0]);
-    m += w, sx += w * p[0], sy += w * p[1], sxx += w * p[0] * p[0], sxy += w * p[0] * p[1];
+    const double w = p.weight;
+    lo = std::min(lo, p.duty), hi = std::max(hi, p.duty);
+    m += w, sx += w * p.duty, sy += w * p.rate, sxx += w * p.duty * p.duty,
+        sxy += w * p.duty * p.rate;
   }
-  if (hi - lo < 0.03) return;  // one duty: the line is not determined
+  if (hi - lo < kMinSpread) return;  // one duty: the line is not determined
   const double a = (m * sxy - sx * sy) / (m * sxx - sx * sx);
   const double b = (sy - a * sx) / m;
   if (!(a > 0)) return;
   const double offset = -b / a;
-  if (!(offset >= 0 && offset < 0.6)) return;
-  out = {true, a, offset, static_cast<int>(pts.size())};
+  if (!(offset >= 0 && offset < kMaxOffset)) return;
+  out = {true, a, a, offset, static_cast<int>(pts.size()), false};
 }
 
-double residual(const std::array<double, 3>& p, const MotorFit& f) {
-  return std::abs(p[1] - f.slope * (p[0] - f.offset)) / std::max(p[1], 1e-9);
+/// Each direction's slope through the offset `offset` (weighted least squares through the point
+/// (offset, 0)), and the weighted squared residual; false when a direction's points do not lie
+/// above the offset.
+bool slopesAt(const Points& pts, double offset, double slope[2], double* sse) {
+  double sxx[2] = {0, 0}, sxy[2] = {0, 0}, syy[2] = {0, 0};
+  for (const auto& p : pts) {
+    const int d = p.backward ? 1 : 0;
+    const double x = p.duty - offset;
+    if (x <= 0) return false;
+    sxx[d] += p.weight * x * x, sxy[d] += p.weight * x * p.rate, syy[d] += p.weight * p.rate * p.rate;
+  }
+  *sse = 0;
+  for (int d = 0; d < 2; ++d) {
+    slope[d] = sxx[d] > 0 ? sxy[d] / sxx[d] : 0.0;
+    if (sxx[d] > 0) *sse += syy[d] - sxy[d] * sxy[d] / sxx[d];
+  }
+  return true;
+}
+
+/// A slope per direction through one offset, when some direction's points span two duties: the
+/// offset that leaves the least squared residual (a scan, then a golden-section search).
+bool fitPerDirection(const Points& pts, MotorFit& out) {
+  double lo[2] = {1e9, 1e9}, hi[2] = {-1e9, -1e9};
+  for (const auto& p : pts) {
+    const int d = p.backward ? 1 : 0;
+    lo[d] = std::min(lo[d], p.duty), hi[d] = std::max(hi[d], p.duty);
+  }
+  if (hi[0] - lo[0] < kMinSpread && hi[1] - lo[1] < kMinSpread) return false;
+  const double top = std::min({lo[0], lo[1], kMaxOffset}) - 1e-6;
+  double slope[2], sse = 0, best = -1, best_sse = 0;
+  constexpr double kStep = 0.002;
+  for (double o = 0; o < top; o += kStep) {
+    if (slopesAt(pts, o, slope, &sse) && (best < 0 || sse < best_sse)) best = o, best_sse = sse;
+  }
+  if (best < 0) return false;
+  double a = std::max(0.0, best - kStep), b = std::min(top, best + kStep);
+  const double g = 0.5 * (std::sqrt(5.0) - 1);
+  for (int i = 0; i < 40; ++i) {
+    const double c = b - g * (b - a), d = a + g * (b - a);
+    double sc = 0, sd = 0;
+    const bool okc = slopesAt(pts, c, slope, &sc), okd = slopesAt(pts, d, slope, &sd);
+    if (!okd || (okc && sc < sd)) b = d; else a = c;
+  }
+  const double offset = 0.5 * (a + b);
+  if (!slopesAt(pts, offset, slope, &sse)) return false;
+  const bool forward = lo[0] < 1e9, backward = lo[1] < 1e9;
+  const double f = forward ? slope[0] : slope[1], r = backward ? slope[1] : slope[0];
+  if (!(f > 0 && r > 0 && offset >= 0 && offset < kMaxOffset)) return false;
+  out = {true, f, r, offset, static_cast<int>(pts.size()), true};
+  return true;
+}
+
+void fit(const Points& pts, MotorFit& out) {
+  if (!fitPerDirection(pts, out)) fitLine(pts, out);
+}
+
+double residual(const MotorFitter::Point& p, const MotorFit& f) {
+  const double slope = p.backward ? f.backward_slope : f.slope;
+  return std::abs(p.rate - slope * (p.duty - f.offset)) / std::max(p.rate, 1e-9);
 }
 
 }  // namespace
@@ -60,15 +124,15 @@ void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // A rate's variance from a window of length T falls as 1/T^3 (quantised ticks, uniform
   // samples): the short first drives weigh little next to the long ones.
   const double weight = std::pow(t1 - t0, 3);
-  points_left_.push_back({std::abs(drive.duties.left), rate_left, weight});
-  points_right_.push_back({std::abs(drive.duties.right), rate_right, weight});
+  points_left_.push_back({std::abs(drive.duties.left), rate_left, weight, drive.backward});
+  points_right_.push_back({std::abs(drive.duties.right), rate_right, weight, drive.backward});
   // Beyond the paper: a drive whose rate lies off the line of the others by more than
   // max_fit_residual (a bump, a slipping wheel, a command that came late) is dropped from both
   // wheels' fits, the worst first, while at least four drives remain.
   while (true) {
     left_ = right_ = MotorFit();
-    fitLine(points_left_, left_);
-    fitLine(points_right_, right_);
+    fit(points_left_, left_);
+    fit(points_right_, right_);
     if (!left_.valid || !right_.valid || points_left_.size() <= 4) break;
     size_t worst = 0;
     double worst_residual = 0;

@@ -91,6 +91,7 @@ std::vector<WheelReplay::Segment> WheelReplay::segments(bool with_samples) const
     s.kind = c.kind;
     s.start_s = c.stamp_s;
     s.drive.duties = {std::abs(c.duties.left), std::abs(c.duties.right)};
+    s.drive.backward = c.kind == Kind::kBack;
     s.drive.start_s = c.stamp_s;
     out.push_back(std::move(s));
   }
@@ -276,6 +277,16 @@ WheelReplayResult WheelReplay::result() const {
         i + 2 < n && all[i + 1].kind == Kind::kStill && all[i + 2].kind == Kind::kBack;
     if (!last_forward_counted) continue;
     ++out.drives;
+    if (!estimator.converged()) {
+      // The drive went out with the ratio the live run had then (k = u_r/u_l above the offsets
+      // of that time): the replay takes it from the recorded duties, so that an update it could
+      // not measure (a still whose frames it did not get) is not carried into every later one.
+      const KinematicsParams p =
+          calibratedKinematics(commanded, estimator.ratio(), fitter, options_.compensate_deadband);
+      const double u_left = removeDeadband(s.drive.duties.left, p.deadband_left);
+      const double u_right = removeDeadband(s.drive.duties.right, p.deadband_right);
+      if (u_left > 0 && u_right > 0) estimator.rebase(u_right / u_left);
+    }
     if (options_.compensate_deadband) {
       addDriveToFit(s.drive, ticks_per_rev_, commanded, options_.drive_speed_mps, fitter,
                     estimator);

@@ -217,6 +217,17 @@ DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, dou
   return {min_duty_left, min_duty_right};
 }
 
+WheelDuties WheelRun::backwardDuties(const WheelDuties& forward) const {
+  // The kinematics drive forward straight; a motor faster backward than forward (the fit's
+  // slopes per direction) gets its duty above the deadband scaled down by as much.
+  const auto scaled = [](double duty, const MotorFit& f) {
+    if (!f.valid || !f.per_direction || duty <= f.offset) return duty;
+    return f.offset + (duty - f.offset) * f.slope / f.backward_slope;
+  };
+  if (!options_.compensate_deadband) return forward;
+  return {scaled(forward.left, fitter_.left()), scaled(forward.right, fitter_.right())};
+}
+
 KinematicsParams WheelRun::driveParams() const {
   return calibratedKinematics(options_.kinematics, estimator_.ratio(), fitter_,
                               options_.compensate_deadband);
@@ -514,20 +525,23 @@ void WheelRun::onMeasured(double now_s) {
         ++iteration_;
       }
       // Paper §3.4: drive back as far, with the ratio of the drive forward (the update counts from
-      // the next drive), then go on. At another speed when fitting the deadband: the second point
-      // of each wheel's line.
+      // the next drive), then go on. When fitting the deadband, every other drive back at another
+      // speed (the first one included): each wheel's line gets a second duty, and the drives back
+      // alone span two duties, so that a motor faster one way than the other does not bend it.
       {
-        const double back_mps =
-            options_.compensate_deadband ? options_.back_speed_mps : options_.drive_speed_mps;
+        const bool other_speed = options_.compensate_deadband && back_drives_ % 2 == 0;
+        ++back_drives_;
+        const double back_mps = other_speed ? options_.back_speed_mps : options_.drive_speed_mps;
         const KinematicsParams& p = drive_params_;
         const double w = back_mps / p.radius;
-        const WheelDuties d = speedsToDuties(p, {w, w});
+        const WheelDuties d = backwardDuties(speedsToDuties(p, {w, w}));
         duties_ = {-d.left, -d.right};
         drive_sign_ = -1;
         since_still_ = SinceStill::kBackward;
         motion_ = Motion::kDrive;
         drive_ = DriveRecord();
         drive_.duties = d;
+        drive_.backward = true;
         drive_.start_s = now_s;
         drive_start_left_ = encoders_.rawLeft();
         drive_start_right_ = encoders_.rawRight();

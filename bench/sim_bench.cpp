@@ -137,11 +137,11 @@ int main(int argc, char** argv) {
     options.supersampling = robot.camera.supersampling;
     options.noise_sigma = robot.camera.noise_sigma;
     // The shortcuts off: every frame rendered anew, every pose's blends added.
-    RenderOptions today = options;
-    today.still_reuse_px = -1;
-    today.blur_block_sums = false;
-    today.blur_half_res_poses = 0;
-    today.edge_samples_on_plane = false;
+    RenderOptions plain = options;
+    plain.still_reuse_px = -1;
+    plain.blur_block_sums = false;
+    plain.blur_half_res_poses = 0;
+    plain.edge_samples_on_plane = false;
 
     // Render time: still frames at headings all around the start (boards in view or not), the
     // renderer with its shortcuts off and on alternately on the same pose, so that the machine's
@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
     for (int k = 0; k < 2; ++k) {
       std::unique_ptr<Renderer> renderers[2];
       for (int path = 0; path < 2; ++path) {
-        RenderOptions o = path == 0 ? today : options;
+        RenderOptions o = path == 0 ? plain : options;
         o.supersampling = supersampling[k];
         o.still_reuse_px = -1;  // every frame rendered anew: the cost of a fresh frame
         renderers[path] = std::make_unique<Renderer>(robot.camera, world, o);
@@ -199,8 +199,8 @@ int main(int argc, char** argv) {
     // renderer alternately, the best of 3 per frame.
     std::vector<double> ms_blur[2];
     {
-      Renderer blur_today(robot.camera, world, today), blur_now(robot.camera, world, options);
-      Renderer* renderers[2] = {&blur_today, &blur_now};
+      Renderer blur_plain(robot.camera, world, plain), blur_fast(robot.camera, world, options);
+      Renderer* renderers[2] = {&blur_plain, &blur_fast};
       std::mt19937_64 rng(5);
       for (int i = 0; i < 22; ++i) {
         std::vector<Pose2> poses;
@@ -224,10 +224,10 @@ int main(int argc, char** argv) {
     const char* motion_names[] = {"stop-and-shoot sweep (0.1 s one-wheel pulses at duty 0.3, 0.6 s still)",
                                   "straight drives (duty -0.3 for 2 s, still 1 s, +0.3 for 2 s, still 1 s)",
                                   "continuous driving (pivots and straight runs at duty 0.4-0.5, 2 s each; 2 of 12 s still)"};
-    RunStats before[3], after[3];
+    RunStats plain_runs[3], fast_runs[3];
     for (int m = 0; m < 3; ++m) {
-      before[m] = run(robot, world, &today, motions[m], sim_s, /*hold_stopped_wheels=*/false);
-      after[m] = run(robot, world, &options, motions[m], sim_s);
+      plain_runs[m] = run(robot, world, &plain, motions[m], sim_s, /*hold_stopped_wheels=*/false);
+      fast_runs[m] = run(robot, world, &options, motions[m], sim_s);
     }
     const RunStats without = run(robot, world, nullptr, Motion::kDrive, sim_s);
 
@@ -290,15 +290,15 @@ int main(int argc, char** argv) {
                 "frames, shortcuts off | real-time factor, shortcuts off |\n"
                 "|---|---|---|---|---|---|\n");
     for (int m = 0; m < 3; ++m) {
-      const RunStats& a = after[m];
+      const RunStats& a = fast_runs[m];
       const double total_ms = 1000 * sim_s / a.rtf / sim_s;
       const double blurred = 1000 * a.blurred_s / sim_s, still = 1000 * a.still_s / sim_s, jpeg = 1000 * a.jpeg_s / sim_s;
       std::printf("| %s | %d / %llu / %llu | %.1f | %.0f / %.0f / %.0f / %.0f | %d / %llu / %llu | %.1f |\n",
                   motion_names[m], a.blurred, static_cast<unsigned long long>(a.still_rendered),
                   static_cast<unsigned long long>(a.still_reused), a.rtf, blurred, still, jpeg,
-                  total_ms - blurred - still - jpeg, before[m].blurred,
-                  static_cast<unsigned long long>(before[m].still_rendered),
-                  static_cast<unsigned long long>(before[m].still_reused), before[m].rtf);
+                  total_ms - blurred - still - jpeg, plain_runs[m].blurred,
+                  static_cast<unsigned long long>(plain_runs[m].still_rendered),
+                  static_cast<unsigned long long>(plain_runs[m].still_reused), plain_runs[m].rtf);
     }
     std::printf("| continuous driving, camera off | | %.1f | | | |\n", without.rtf);
     return 0;

@@ -142,7 +142,8 @@ TEST(Replay, RecordedRunReplayedMatchesLiveAndTruth) {
   EXPECT_TRUE(fs::exists(replay_root / "report" / veh / "report.png"));
   // The replay says it is one, shows every update of its iteration, and its progress (the console
   // lines "wheels/replay running N %") rises with the recording, never back.
-  YamlMap replay_summary = YamlMap::loadFile((replay_root / "report" / veh / "summary.yaml").string());
+  YamlMap replay_summary =
+      YamlMap::loadFile((replay_root / "report" / veh / "summary.yaml").string());
   EXPECT_EQ(replay_summary.required<std::string>("replay_of"), bag.string());
   const std::string replay_text = readText(replay_root / "report" / veh / "summary.yaml");
   const auto count_iterations = [](const std::string& text) {

@@ -69,7 +69,6 @@ class MinDutyProbe {
 
   /// Valid once finished() and !failed().
   const MinDutyResult& result() const { return result_; }
-  int pulses() const { return pulses_; }
   /// Wheel directions probed so far, 0-4.
   int probed() const { return std::min(stage_, 4); }
 
@@ -77,7 +76,6 @@ class MinDutyProbe {
   MinDutyProbeOptions options_;
   int stage_ = 0;  ///< 0 left+, 1 left-, 2 right+, 3 right-, 4 done
   double duty_;
-  int pulses_ = 0;
   MinDutyResult result_;
   std::string failure_;
 };

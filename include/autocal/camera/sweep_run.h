@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -160,7 +161,7 @@ class SweepRun {
   /// Progress through the sweep's legs: the current leg (SweepController::pass), the heading it
   /// began at and the widest leg so far [rad]; the sweep usually ends in its third leg.
   static constexpr double kExpectedLegs = 3;
-  static constexpr double kFirstLegArcRad = 3.14159;  ///< before a leg ended: half a turn
+  static constexpr double kFirstLegArcRad = M_PI;  ///< before a leg ended: half a turn
   static constexpr double kProbeShare = 0.2;          ///< of the stage's progress
   int leg_ = 0;
   double leg_start_rad_ = 0, leg_arc_rad_ = 0;

@@ -49,7 +49,6 @@ WheelCommand MinDutyProbe::command() const { return stageCommand(stage_ < 4 ? st
 
 void MinDutyProbe::report(int ticks_moved, bool image_moved) {
   if (finished()) return;
-  ++pulses_;
   const WheelCommand c = command();
   const std::string wheel = std::string(name(c.wheel)) + " wheel";
   const std::string way = c.sign > 0 ? "forward" : "backward";

@@ -35,6 +35,13 @@ sim::RobotConfig variant(double gl, double gr, double rl, double rr, double dead
   return r;
 }
 
+/// The default robot with motors `left` and `right` times as fast backward as forward.
+sim::RobotConfig backwardGains(double left, double right) {
+  sim::RobotConfig r = load("robot.yaml");
+  r.backward_gain_ratio_left = left, r.backward_gain_ratio_right = right;
+  return r;
+}
+
 double trueTrim(const sim::RobotConfig& r) {
   const double k =
       (r.motor_gain_left * r.wheel_radius_left) / (r.motor_gain_right * r.wheel_radius_right);
@@ -61,6 +68,8 @@ int main() {
        0.085},
       {"left wheel 2 % larger, right motor 8 % stronger, no deadband guess",
        variant(1.0, 1.08, 0.0325, 0.0318, 0.1), 0.0},
+      {"default, motors 2 % slower (left) and 1 % faster (right) backward",
+       backwardGains(0.98, 1.01), 0.087},
   };
   const double speeds[3] = {0.15, 0.25, 0.4};
   std::printf("### The wheel stage: autocal vs the paper's method\n\n");

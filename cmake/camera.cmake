@@ -15,7 +15,6 @@ target_sources(autocal_core PRIVATE
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
 target_link_libraries(calibrate_camera autocal_ros)
-target_compile_options(calibrate_camera PRIVATE ${AUTOCAL_WARNINGS})
 target_compile_definitions(calibrate_camera PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
 autocal_ros_target(calibrate_camera)
 
@@ -46,7 +45,6 @@ endif()
 add_executable(bench_camera_detection test/camera/bench_camera_detection.cpp)
 target_link_libraries(bench_camera_detection autocal_core autocal_sim_core)
 target_compile_definitions(bench_camera_detection PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
-target_compile_options(bench_camera_detection PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(bench_camera_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 
 if(CATKIN_ENABLE_TESTING)
@@ -67,7 +65,6 @@ add_executable(camera_calibration_node
   src/nodes/camera_calibration/camera_calibration_node.cpp
   src/nodes/camera_calibration/camera_calibration_node_main.cpp)
 target_link_libraries(camera_calibration_node autocal_ros)
-target_compile_options(camera_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(camera_calibration_node)
 
 if(CATKIN_ENABLE_TESTING)
@@ -105,6 +102,5 @@ if(CATKIN_ENABLE_TESTING)
   add_executable(camera_sweep_bench bench/camera_sweep_bench.cpp)
   target_link_libraries(camera_sweep_bench autocal_test_support autocal_core autocal_sim_core)
   target_compile_definitions(camera_sweep_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
-  target_compile_options(camera_sweep_bench PRIVATE ${AUTOCAL_WARNINGS})
   set_target_properties(camera_sweep_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 endif()

@@ -9,7 +9,6 @@ target_sources(autocal_core PRIVATE
 # The offline tool: Duckietown's board-on-the-floor procedure from one image (no ROS needed).
 add_executable(calibrate_extrinsics src/nodes/calibrate_extrinsics_main.cpp)
 target_link_libraries(calibrate_extrinsics autocal_core)
-target_compile_options(calibrate_extrinsics PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(calibrate_extrinsics PROPERTIES
   RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
 

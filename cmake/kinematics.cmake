@@ -10,7 +10,6 @@ add_executable(kinematics_node
   src/nodes/kinematics/kinematics_node.cpp
   src/nodes/kinematics/kinematics_node_main.cpp)
 target_link_libraries(kinematics_node autocal_ros)
-target_compile_options(kinematics_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(kinematics_node)
 install(TARGETS kinematics_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 

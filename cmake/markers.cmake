@@ -9,7 +9,6 @@ target_sources(autocal_core PRIVATE
 # side. Built into the catkin devel space's lib/autocal, where rosrun finds it.
 add_executable(detect_tags src/nodes/detect_tags_main.cpp)
 target_link_libraries(detect_tags autocal_core)
-target_compile_options(detect_tags PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(detect_tags)
 install(TARGETS detect_tags RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
@@ -31,5 +30,4 @@ endif()
 add_executable(bench_tag_detection test/markers/bench_tag_detection.cpp)
 target_link_libraries(bench_tag_detection autocal_core autocal_sim_core)
 target_compile_definitions(bench_tag_detection PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
-target_compile_options(bench_tag_detection PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(bench_tag_detection PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)

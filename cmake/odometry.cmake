@@ -10,7 +10,6 @@ target_sources(autocal_core PRIVATE
 # catkin devel space's lib/autocal, where rosrun finds it.
 add_executable(umbmark src/nodes/umbmark_main.cpp)
 target_link_libraries(umbmark autocal_core)
-target_compile_options(umbmark PRIVATE ${AUTOCAL_WARNINGS})
 install(TARGETS umbmark RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
@@ -41,23 +40,19 @@ add_executable(odometry_calibration_node
   src/nodes/odometry_calibration/odometry_calibration_node.cpp
   src/nodes/odometry_calibration/odometry_calibration_node_main.cpp)
 target_link_libraries(odometry_calibration_node autocal_ros)
-target_compile_options(odometry_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(odometry_calibration_node)
 add_executable(straight_length_helper src/nodes/sim_tools/straight_length_helper.cpp)
 target_link_libraries(straight_length_helper autocal_ros)
-target_compile_options(straight_length_helper PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(straight_length_helper)
 # ... and for UMBmark's return errors (method:=umbmark).
 add_executable(umbmark_error_helper src/nodes/sim_tools/umbmark_error_helper.cpp)
 target_link_libraries(umbmark_error_helper autocal_ros)
-target_compile_options(umbmark_error_helper PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(umbmark_error_helper)
 
 # `rosrun autocal uah --bag FILE --veh NAME ...`: the UAH result from a bag, no robot, no master
 # (rosbag's C++ API and the ROS layer's message conversions).
 add_executable(uah src/nodes/uah_main.cpp)
 target_link_libraries(uah autocal_ros)
-target_compile_options(uah PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(uah)
 install(TARGETS uah RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
@@ -127,6 +122,5 @@ if(CATKIN_ENABLE_TESTING)
   add_executable(odometry_bench bench/odometry_bench.cpp)
   target_link_libraries(odometry_bench autocal_odometry_test_support)
   target_compile_definitions(odometry_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
-  target_compile_options(odometry_bench PRIVATE ${AUTOCAL_WARNINGS})
   set_target_properties(odometry_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 endif()

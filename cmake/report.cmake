@@ -7,13 +7,11 @@ add_executable(run_report_node
   src/nodes/run_report/run_report_node.cpp
   src/nodes/run_report/run_report_node_main.cpp)
 target_link_libraries(run_report_node autocal_ros)
-target_compile_options(run_report_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(run_report_node)
 
 # Ends sim_fleet.launch when every robot's run ended; says which failed.
 add_executable(fleet_report_node src/nodes/run_report/fleet_report_main.cpp)
 target_link_libraries(fleet_report_node autocal_ros)
-target_compile_options(fleet_report_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(fleet_report_node)
 
 # The camera image with detections for RViz (raw: Debian has no compressed image_transport plugin).
@@ -21,7 +19,6 @@ add_executable(camera_view_node
   src/nodes/run_report/camera_view_node.cpp
   src/nodes/run_report/camera_view_node_main.cpp)
 target_link_libraries(camera_view_node autocal_ros)
-target_compile_options(camera_view_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(camera_view_node)
 
 if(CATKIN_ENABLE_TESTING)

@@ -54,13 +54,10 @@ set_target_properties(sim_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINA
 # Validation tool: a calibration's camera_info YAML next to the simulated robot's true lens.
 add_executable(compare_camera src/nodes/sim_tools/compare_camera_main.cpp)
 target_link_libraries(compare_camera autocal_sim_core autocal_ros)
-target_compile_options(compare_camera PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(compare_camera)
 add_executable(compare_extrinsics src/nodes/sim_tools/compare_extrinsics_main.cpp)
 target_link_libraries(compare_extrinsics autocal_sim_core autocal_core)
-target_compile_options(compare_extrinsics PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(compare_extrinsics PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)
 add_executable(compare_wheels src/nodes/sim_tools/compare_wheels_main.cpp)
 target_link_libraries(compare_wheels autocal_sim_core autocal_core)
-target_compile_options(compare_wheels PRIVATE ${AUTOCAL_WARNINGS})
 set_target_properties(compare_wheels PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CATKIN_DEVEL_PREFIX}/lib/autocal)

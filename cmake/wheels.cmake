@@ -28,7 +28,6 @@ add_executable(wheel_calibration_node
   src/nodes/wheel_calibration/wheel_calibration_node.cpp
   src/nodes/wheel_calibration/wheel_calibration_node_main.cpp)
 target_link_libraries(wheel_calibration_node autocal_ros)
-target_compile_options(wheel_calibration_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(wheel_calibration_node)
 
 if(CATKIN_ENABLE_TESTING)
@@ -66,7 +65,6 @@ add_executable(validate_straight
   src/nodes/validate_straight/validate_straight_node.cpp
   src/nodes/validate_straight/validate_straight_main.cpp)
 target_link_libraries(validate_straight autocal_ros)
-target_compile_options(validate_straight PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(validate_straight)
 if(CATKIN_ENABLE_TESTING)
   add_executable(test_validate_straight EXCLUDE_FROM_ALL test/wheels/test_validate_straight.cpp)
@@ -84,7 +82,6 @@ if(CATKIN_ENABLE_TESTING)
   target_link_libraries(wheel_bench autocal_test_support autocal_core autocal_sim_core)
   target_include_directories(wheel_bench PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
   target_compile_definitions(wheel_bench PRIVATE AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
-  target_compile_options(wheel_bench PRIVATE ${AUTOCAL_WARNINGS})
   set_target_properties(wheel_bench PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bench)
 endif()
 
@@ -100,7 +97,6 @@ add_executable(lane_refinement_node
   src/nodes/lane_refinement/lane_refinement_node.cpp
   src/nodes/lane_refinement/lane_refinement_node_main.cpp)
 target_link_libraries(lane_refinement_node autocal_ros)
-target_compile_options(lane_refinement_node PRIVATE ${AUTOCAL_WARNINGS})
 autocal_ros_target(lane_refinement_node)
 if(CATKIN_ENABLE_TESTING)
   # One pass through ROS at real_time_factor 2 (stable_passes 1), judged by the truth.

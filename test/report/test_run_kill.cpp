@@ -148,7 +148,7 @@ TEST(RunKill, TheRobotStopsTheRunFailsTheFilesAreIntact) {
   EXPECT_EQ(autocal::readFile(camera_file), camera_text);
   EXPECT_EQ(autocal::readFile(kinematics_file), kinematics_text);
   EXPECT_EQ(autocal::readFile(odometry_file), odometry_text);
-  for (const fs::path dir :
+  for (const fs::path& dir :
        {fs::path(camera_file).parent_path(), fs::path(kinematics_file).parent_path(),
         fs::path(odometry_file).parent_path()}) {
     for (const auto& entry : fs::directory_iterator(dir)) {

@@ -96,8 +96,11 @@ TEST(RunRecorder, AStageThatOnlyWaitedIsNotStartedInTheSummaryAndGates) {
   const std::string yaml = summaryYaml(r.record(), ViewsAudit(), ReportOptions(), "t");
   EXPECT_NE(yaml.find("  wheels:\n    state: not started\n"), std::string::npos) << yaml;
   EXPECT_EQ(yaml.find("state: running"), std::string::npos) << yaml;
-  for (const Gate& g : evaluateGates(r.record(), ViewsAudit(), ReportOptions()))
-    if (g.name == "wheels stage") EXPECT_EQ(g.detail, "not started");
+  for (const Gate& g : evaluateGates(r.record(), ViewsAudit(), ReportOptions())) {
+    if (g.name == "wheels stage") {
+      EXPECT_EQ(g.detail, "not started");
+    }
+  }
 }
 
 TEST(RunRecorder, DeadStageAndInterruption) {

@@ -57,7 +57,7 @@ TEST(RunUnwritable, EveryStageFailsNamingItsFolderAndTheRobotNeverMoves) {
     EXPECT_NE(why.find(text), std::string::npos) << stage << ": " << why;
     t_end = std::max(t_end, failed.at(stage).header.stamp.toSec());
   }
-  for (const std::string file :
+  for (const std::string& file :
        {"/camera_intrinsic/" + veh + ".yaml", "/kinematics/" + veh + ".yaml"})
     EXPECT_FALSE(std::ifstream(root + file).good()) << root + file << " was written";
   // The robot: at its start (the world's robot_start, the origin), still, two seconds of sim time

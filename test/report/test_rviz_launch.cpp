@@ -65,7 +65,7 @@ TEST(RvizLaunch, TheConfigShowsWhatTheNodesPublish) {
       if (d[key]) shown.insert(cls + " " + d[key].as<std::string>());
   }
   // Relative topics: RViz runs in the robot's namespace (launch/rviz.launch).
-  for (const std::string& expected :
+  for (const char* expected :
        {"rviz/MarkerArray sim/world_markers", "rviz/Path sim/true_path",
         "rviz/Path calibration/believed_path", "rviz/Image camera_view/image"}) {
     EXPECT_EQ(shown.count(expected), 1u) << expected;

@@ -174,7 +174,7 @@ TEST(MsgConversion, TagDetectionRoundTrip) {
   EXPECT_NEAR(back.homography(2, 1), 0.001, 1e-7);
   for (int i = 0; i < 9; ++i) EXPECT_NEAR(back.rotation.val[i], rot.val[i], 1e-9) << i;
   EXPECT_NEAR(back.translation_m[2], 0.3, 1e-12);
-  for (const cv::Vec3d r : {cv::Vec3d(0, 0, 0), cv::Vec3d(M_PI, 0, 0), cv::Vec3d(0, M_PI, 0),
+  for (const cv::Vec3d& r : {cv::Vec3d(0, 0, 0), cv::Vec3d(M_PI, 0, 0), cv::Vec3d(0, M_PI, 0),
                             cv::Vec3d(0, 0, M_PI), cv::Vec3d(0.1, 0.2, -0.3)}) {
     cv::Rodrigues(r, rot);
     t.rotation = rot;

@@ -161,7 +161,9 @@ TEST(SimNode, PublishesEveryTopicAtItsRateOnSimTime) {
     // connections' delivery race: 10 clock periods).
     const std::vector<double>& s = log.stamps[e.topic];
     for (size_t i = 1; i < s.size(); ++i) ASSERT_GE(s[i], s[i - 1]) << e.topic;
-    if (!s.empty()) EXPECT_LE(s.back(), ros::Time::now().toSec() + 0.05) << e.topic;
+    if (!s.empty()) {
+      EXPECT_LE(s.back(), ros::Time::now().toSec() + 0.05) << e.topic;
+    }
   }
   int clock_in_window = 0;
   for (double t : clock_s) clock_in_window += (t >= t0 && t < t1) ? 1 : 0;
@@ -670,7 +672,7 @@ TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
     EXPECT_EQ(runNode(common + required, &out), 0) << out;
   }
   // Each required parameter, missing, stops the node with the bad-configuration code, naming it.
-  for (const std::string& missing : {"robot_config", "world_config"}) {
+  for (const std::string missing : {"robot_config", "world_config"}) {
     const std::string other = missing == "robot_config" ? " _world_config:=" + world
                                                         : " _robot_config:=" + robotConfigPath();
     std::string out;

@@ -116,9 +116,12 @@ TEST(Kinematics, TrimOfBothSignsAndGain) {
         EXPECT_NEAR(d.left, closedFormLeft(gain, trim, vw.first, vw.second), kTol);
       }
       const WheelDuties straight = carCmdToDuties(p, 0.25, 0.0);
-      if (trim > 0)
+      if (trim > 0) {
         EXPECT_GT(straight.right, straight.left) << "trim > 0 speeds the right wheel up";
-      if (trim < 0) EXPECT_LT(straight.right, straight.left);
+      }
+      if (trim < 0) {
+        EXPECT_LT(straight.right, straight.left);
+      }
       EXPECT_NEAR(straight.right / straight.left, speedRatioFromTrim(trim, gain), 1e-12);
     }
   }

@@ -58,7 +58,9 @@ class SyntheticLane {
         last_output_ = refiner.update(t_ + 0.01);
         return true;
       }
-      if (refiner.inPass()) EXPECT_TRUE(o.commanding);
+      if (refiner.inPass()) {
+        EXPECT_TRUE(o.commanding);
+      }
       const CarCommand cmd = o.commanding ? o.cmd : CarCommand{0.2, 0.0};
       step(carCmdToDuties(kin, cmd), 0.01);
       max_abs_y = std::max(max_abs_y, std::abs(y_));

@@ -65,9 +65,11 @@ TEST(WheelNode, CalibratesTheTrimAndLeavesTheTagField) {
                                 : testParam<double>("max_drift_other_m"))
         << "at " << v << " m/s (trim " << params.trim << ")";
   }
-  for (size_t i = 0; i < end->figure_names.size(); ++i)
-    if (end->figure_names[i] == "drives")
+  for (size_t i = 0; i < end->figure_names.size(); ++i) {
+    if (end->figure_names[i] == "drives") {
       EXPECT_LE(end->figure_values[i], testParam<int>("max_drives"));
+    }
+  }
 
   // Where the robot ended: past the tag field, heading into the lane (−x), standing still.
   const double t_end = end->header.stamp.toSec();

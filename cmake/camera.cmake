@@ -1,5 +1,5 @@
 # camera: core sources, nodes, commands and tests (included from CMakeLists.txt).
-target_sources(autocal_core PRIVATE
+target_sources(autocal_camera PRIVATE
   src/core/camera/chessboard.cpp
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp

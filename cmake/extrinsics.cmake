@@ -1,6 +1,6 @@
 # extrinsics: the camera's ground projection (core sources, the offline command, tests; included
 # from CMakeLists.txt).
-target_sources(autocal_core PRIVATE
+target_sources(autocal_extrinsics PRIVATE
   src/core/extrinsics/ground_projection.cpp
   src/core/extrinsics/floor_board.cpp
   src/core/extrinsics/tag_mount.cpp

@@ -1,8 +1,7 @@
-# markers: the `detect_tags` command, its tests and the tag detection benchmark
-# (included from CMakeLists.txt; the detector itself, src/core/markers/tag_detector.cpp, is listed
-# in cmake/wheels.cmake, the stage that uses it first).
-target_sources(autocal_core PRIVATE
-  src/core/camera_info_file.cpp
+# markers: AprilTag detection (autocal_markers), the `detect_tags` command, its tests and the tag
+# detection benchmark (included from CMakeLists.txt).
+target_sources(autocal_markers PRIVATE
+  src/core/markers/tag_detector.cpp
   src/core/markers/detect_tags.cpp)
 
 # `rosrun autocal detect_tags ...`: images need no ROS, but --bag reads rosbag, so it is on the ROS

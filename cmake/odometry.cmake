@@ -1,6 +1,6 @@
 # Odometry calibration: dead reckoning, UMBmark, the UAH method (paper 002), the odometry file,
 # the `umbmark` command and their tests (included from CMakeLists.txt).
-target_sources(autocal_core PRIVATE
+target_sources(autocal_odometry PRIVATE
   src/core/odometry/dead_reckoning.cpp
   src/core/odometry/umbmark.cpp
   src/core/odometry/calibration_file.cpp
@@ -29,11 +29,9 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # The UAH experiments driven by the robot (odometry::UahRun) and their test on the simulator's core.
-target_sources(autocal_core PRIVATE src/core/odometry/uah_run.cpp)
+target_sources(autocal_odometry PRIVATE src/core/odometry/uah_run.cpp)
 # ... and recomputed from a recording of them (odometry::replayUah, the passive mode).
-target_sources(autocal_core PRIVATE src/core/odometry/uah_replay.cpp)
-if(CATKIN_ENABLE_TESTING)
-endif()
+target_sources(autocal_odometry PRIVATE src/core/odometry/uah_replay.cpp)
 
 # The robot's UAH stage, and the simulator's tape measure for its straight runs.
 add_executable(odometry_calibration_node
@@ -89,7 +87,7 @@ endif()
 
 # UMBmark driven by the robot (odometry::UmbmarkRun), its test on the simulator's core (beside UAH
 # on the same robots) and the odometry benchmark (scripts/bench/odometry.sh).
-target_sources(autocal_core PRIVATE src/core/odometry/umbmark_run.cpp)
+target_sources(autocal_odometry PRIVATE src/core/odometry/umbmark_run.cpp)
 if(CATKIN_ENABLE_TESTING)
   add_library(autocal_odometry_test_support STATIC test/support/odometry_in_sim.cpp)
   target_include_directories(autocal_odometry_test_support PUBLIC test)

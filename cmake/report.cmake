@@ -1,6 +1,6 @@
 # report: the run's report (report.png, summary.yaml) and run_report_node, which watches a whole
 # calibration run and ends it (included from CMakeLists.txt).
-target_sources(autocal_core PRIVATE src/core/report/run_record.cpp src/core/report/paths.cpp
+target_sources(autocal_report PRIVATE src/core/report/run_record.cpp src/core/report/paths.cpp
   src/core/report/gates.cpp src/core/report/sheet.cpp src/core/report/summary.cpp src/core/report/camera_view.cpp)
 
 add_executable(run_report_node

@@ -1,13 +1,11 @@
-# wheels: AprilTag detection and pose, heading, the trim estimator, wheel_calibration_node (included from CMakeLists.txt).
-target_sources(autocal_core PRIVATE
-  src/core/markers/tag_detector.cpp
+# wheels: the tags' heading, the trim estimator, the motor fit, the wheel stage (autocal_wheels),
+# wheel_calibration_node (included from CMakeLists.txt).
+target_sources(autocal_wheels PRIVATE
   src/core/wheels/tag_heading.cpp
   src/core/wheels/trim_estimator.cpp
   src/core/wheels/motor_fit.cpp
   src/core/wheels/wheel_run.cpp
   src/core/wheels/wheel_replay.cpp)
-# The wheel stage detects tags: AprilTag is linked where it is used.
-target_link_libraries(autocal_core PUBLIC apriltag::apriltag)
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_trim_estimator SOURCES test/wheels/test_trim_estimator.cpp LIBS autocal_core)
@@ -60,7 +58,7 @@ endif()
 
 # Duckietown's acceptance test automated: drive 2 m straight through the kinematics node, report the
 # drift (the simulator's truth, or the user's tape measure).
-target_sources(autocal_core PRIVATE src/core/wheels/straight_track.cpp)
+target_sources(autocal_wheels PRIVATE src/core/wheels/straight_track.cpp)
 add_executable(validate_straight
   src/nodes/validate_straight/validate_straight_node.cpp
   src/nodes/validate_straight/validate_straight_main.cpp)
@@ -86,7 +84,7 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 # In-lane refinement (paper 000 §5.2): the core, and the node that runs it while the robot drives.
-target_sources(autocal_core PRIVATE src/core/wheels/lane_refiner.cpp)
+target_sources(autocal_wheels PRIVATE src/core/wheels/lane_refiner.cpp)
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_lane_refiner SOURCES test/wheels/test_lane_refiner.cpp LIBS autocal_core)
   target_sources(autocal_test_support PRIVATE test/support/lane_in_sim.cpp)

@@ -128,6 +128,9 @@ RobotConfig readRobot(YamlMap& m) {
         inRange(m, g, 1.0, 0.5, 2.0);
   }
   r.gain_drift_per_min = inRange(m, "gain_drift_per_min", 0.0, -0.05, 0.05);
+  r.backlash_rad = inRange(m, "backlash_rad", 0.0, 0.0, 0.2);
+  r.wheel_slip_sigma = inRange(m, "wheel_slip_sigma", 0.0, 0.0, 0.1);
+  r.wheel_slip_interval_s = inRange(m, "wheel_slip_interval_s", 0.2, 0.001, 10.0);
   if (m.has("transport")) {
     YamlMap t = m.map("transport");
     auto link = [&](const char* key, LinkConfig* l) {

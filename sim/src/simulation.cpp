@@ -65,7 +65,7 @@ double steadyWheelSpeed(double duty, double gain, double motor_constant, double 
 
 Simulation::Simulation(const RobotConfig& robot, const WorldConfig& world,
                        const SimulationOptions& options)
-    : robot_(robot), options_(options) {
+    : robot_(robot), options_(options), slip_rng_(options.seed) {
   if (!(options_.physics_rate_hz >= 50 && options_.physics_rate_hz <= 100000)) {
     throw ConfigError("physics_rate_hz must be within 50..100000");
   }
@@ -176,7 +176,9 @@ void Simulation::applyTraction() {
   const Eigen::Vector2d points[3] = {wheelContact(Side::kLeft), wheelContact(Side::kRight),
                                      vec(body_->GetWorldPoint(b2Vec2(0, 0)))};
   const Eigen::Vector2d dirs[3] = {t, t, n};
-  const double targets[3] = {radius_m_[0] * wheel_speed_rad_s_[0], radius_m_[1] * wheel_speed_rad_s_[1], 0.0};
+  // A slipping wheel's contact point moves by (1 - slip) of its rim's speed.
+  const double targets[3] = {radius_m_[0] * wheel_speed_rad_s_[0] * (1.0 - slip_[0]),
+                             radius_m_[1] * wheel_speed_rad_s_[1] * (1.0 - slip_[1]), 0.0};
   Eigen::Matrix3d A;
   Eigen::Vector3d error;
   double arm[3];
@@ -209,24 +211,50 @@ void Simulation::step() {
   const double tau = robot_.motor_time_constant;
   const double blend = tau > 0 ? 1.0 - std::exp(-dt_s_ / tau) : 1.0;
   const double drift = 1.0 + robot_.gain_drift_per_min * time_s_ / 60.0;
+  if (robot_.wheel_slip_sigma > 0 && time_s_ >= next_slip_s_) {
+    // Each wheel's slip: a new draw every wheel_slip_interval_s.
+    std::normal_distribution<double> slip(0.0, robot_.wheel_slip_sigma);
+    for (double& s : slip_) s = std::clamp(slip(slip_rng_), -0.5, 0.5);
+    next_slip_s_ = time_s_ + robot_.wheel_slip_interval_s;
+  }
   for (int i = 0; i < 2; ++i) {
     const double backward_ratio =
         i == 0 ? robot_.backward_gain_ratio_left : robot_.backward_gain_ratio_right;
     const double gain = gain_[i] * drift * (duty_[i] < 0 ? backward_ratio : 1.0);
     double target = steadyWheelSpeed(duty_[i], gain, robot_.motor_constant, robot_.deadband);
-    // Static friction: a wheel at rest needs the breakaway duty to start; once turning, the
+    // Static friction: a motor at rest needs the breakaway duty to start; once turning, the
     // running deadband holds.
     const double breakaway =
         std::max(robot_.deadband, i == 0 ? robot_.breakaway_duty_left : robot_.breakaway_duty_right);
-    if (wheel_speed_rad_s_[i] == 0.0 && std::abs(duty_[i]) <= breakaway) target = 0.0;
-    wheel_speed_rad_s_[i] += (target - wheel_speed_rad_s_[i]) * blend;
+    if (motor_speed_rad_s_[i] == 0.0 && std::abs(duty_[i]) <= breakaway) target = 0.0;
+    motor_speed_rad_s_[i] += (target - motor_speed_rad_s_[i]) * blend;
     // A coasting wheel that has all but stopped is held by the gearbox's friction: the lag alone
     // lets it creep on, ever slower (the pose moves for about 0.6 s, until its steps fall below
     // the body's float resolution), and every frame of a creeping robot is rendered anew. It stops
     // where the rest of its coast would turn it by a twentieth of an encoder tick or less (below
     // about 0.046 rad/s for 135 ticks and 0.05 s): no encoder reading and no pose a stage measures
     // changes by more than that.
-    if (target == 0.0 && std::abs(wheel_speed_rad_s_[i]) < stop_speed_rad_s_) wheel_speed_rad_s_[i] = 0.0;
+    if (target == 0.0 && std::abs(motor_speed_rad_s_[i]) < stop_speed_rad_s_) motor_speed_rad_s_[i] = 0.0;
+    // Gearbox backlash: the motor crosses the play (backlash_rad at the wheel) before the wheel
+    // follows it the other way; meanwhile the wheel, and its encoder, stand. Where the motor
+    // meets the gear across the play, it stops against the robot's far larger inertia and starts
+    // again with its lag (the load takes up the play without a jerk).
+    double turn_rad = motor_speed_rad_s_[i] * dt_s_;
+    if (robot_.backlash_rad > 0) {
+      const double half = 0.5 * robot_.backlash_rad;
+      const bool crossing = std::abs(play_rad_[i]) < half;
+      play_rad_[i] += turn_rad;
+      turn_rad = 0.0;
+      if (std::abs(play_rad_[i]) > half) {
+        if (crossing) {
+          motor_speed_rad_s_[i] = 0.0;
+        } else {
+          turn_rad = play_rad_[i] - std::copysign(half, play_rad_[i]);
+        }
+        play_rad_[i] = std::copysign(half, play_rad_[i]);
+      }
+    }
+    wheel_speed_rad_s_[i] = turn_rad / dt_s_;
   }
   applyTraction();
   world_->Step(static_cast<float>(dt_s_), options_.velocity_iterations, options_.position_iterations);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "autocal/errors.h"
 #include "autocal/sim/config.h"
@@ -196,6 +197,90 @@ TEST(SimPhysics, GainDriftsLinearlyWithSimulatedTime) {
   sim.advance(29.0);
   const double expected = (1 - 0.03 * sim.time_s() / 60) / (1 - 0.03 * early_t / 60);
   EXPECT_NEAR(sim.wheelSpeed(Side::kLeft) / early, expected, 1e-3);
+}
+
+// After a reversal the motor crosses the gearbox's play before the wheel follows: the wheel stands
+// until the same motor without play would have turned it back by the play, and then the robot
+// follows the wheel without a jerk (no slip).
+TEST(SimPhysics, BacklashHoldsTheWheelWhileTheMotorCrossesThePlay) {
+  RobotConfig ideal = idealRobot(), play = idealRobot();
+  play.backlash_rad = 0.06;
+  Simulation a(ideal, emptyWorld(), SimulationOptions()), b(play, emptyWorld(), SimulationOptions());
+  auto both = [&](double duty, double s) {
+    a.setDuty(duty, duty);
+    b.setDuty(duty, duty);
+    a.advance(s);
+    b.advance(s);
+  };
+  both(0.4, 1.0);
+  both(0.0, 0.5);
+  ASSERT_EQ(a.wheelSpeed(Side::kLeft), 0.0);
+  ASSERT_EQ(b.wheelSpeed(Side::kLeft), 0.0);
+  const double a0 = a.wheelAngle(Side::kLeft), b0 = b.wheelAngle(Side::kLeft), xb = b.pose().x_m;
+  a.setDuty(-0.4, -0.4);
+  b.setDuty(-0.4, -0.4);
+  int held_steps = 0, ideal_steps = 0;
+  while (a0 - a.wheelAngle(Side::kLeft) < play.backlash_rad) {
+    a.step();
+    b.step();
+    ++ideal_steps;
+    if (b.wheelAngle(Side::kLeft) == b0) ++held_steps;
+  }
+  EXPECT_EQ(held_steps, ideal_steps) << "the wheel moved before the motor crossed the play";
+  b.advance(0.02);
+  EXPECT_LT(b.wheelAngle(Side::kLeft), b0) << "the wheel did not follow once the play was crossed";
+  b.advance(1.0);
+  b.setDuty(0.0, 0.0);
+  b.advance(0.5);
+  // The body comes back by the wheels' arc: no slip where the gear took up the play.
+  const double rim_m = play.wheel_radius_left * (b0 - b.wheelAngle(Side::kLeft));
+  EXPECT_NEAR(xb - b.pose().x_m, rim_m, 2e-4);
+  EXPECT_NEAR(b.wheelAngle(Side::kRight), b.wheelAngle(Side::kLeft), 1e-9);
+  // The encoder counts the wheel, not the motor.
+  EXPECT_NEAR(b.encoderTicks(Side::kLeft),
+              std::floor(b.wheelAngle(Side::kLeft) / (2 * M_PI) * play.encoder_resolution), 1.0);
+}
+
+// Each wheel's contact point moves by (1 - slip) of its rim's speed, slip redrawn at intervals from
+// N(0, sigma) with the simulation's seed: the distance driven scatters about the encoders' with
+// that spread, the heading wanders, and a seed repeats its run.
+TEST(SimPhysics, WheelSlipScattersTheDistanceAboutTheEncodersAndRepeatsWithItsSeed) {
+  RobotConfig r = idealRobot();
+  r.wheel_slip_sigma = 0.02;
+  r.wheel_slip_interval_s = 0.2;
+  SimulationOptions o;
+  o.seed = 7;
+  Simulation sim(r, emptyWorld(), o), again(r, emptyWorld(), o);
+  o.seed = 8;
+  Simulation other(r, emptyWorld(), o);
+  for (Simulation* s : {&sim, &again, &other}) s->setDuty(0.4, 0.4);
+  sim.advance(1.0);
+  again.advance(1.0);
+  other.advance(1.0);
+  std::vector<double> ratio;  // ground distance / rim distance per slip interval, the robot at speed
+  for (int k = 0; k < 100; ++k) {
+    const Pose2 p0 = sim.pose();
+    const double rim0 = r.wheel_radius_left * (sim.wheelAngle(Side::kLeft) + sim.wheelAngle(Side::kRight)) / 2;
+    sim.advance(0.2);
+    again.advance(0.2);
+    other.advance(0.2);
+    const double rim = r.wheel_radius_left * (sim.wheelAngle(Side::kLeft) + sim.wheelAngle(Side::kRight)) / 2 - rim0;
+    ratio.push_back(std::hypot(sim.pose().x_m - p0.x_m, sim.pose().y_m - p0.y_m) / rim);
+  }
+  double mean = 0, var = 0;
+  for (double q : ratio) mean += q / ratio.size();
+  for (double q : ratio) var += (q - mean) * (q - mean) / (ratio.size() - 1);
+  // The mean of two wheels' slips: sigma / sqrt(2) (the body's lag behind each redraw smooths it a
+  // little).
+  EXPECT_NEAR(mean, 1.0, 0.01);
+  EXPECT_GT(std::sqrt(var), 0.4 * r.wheel_slip_sigma / std::sqrt(2.0));
+  EXPECT_LT(std::sqrt(var), 1.3 * r.wheel_slip_sigma / std::sqrt(2.0));
+  EXPECT_GT(std::abs(sim.pose().yaw_rad), 1e-3) << "unequal slips should turn the robot";
+  EXPECT_EQ(sim.pose().x_m, again.pose().x_m);
+  EXPECT_EQ(sim.pose().yaw_rad, again.pose().yaw_rad);
+  EXPECT_NE(sim.pose().yaw_rad, other.pose().yaw_rad);
+  // The encoders count the wheels' rotation, slip or not.
+  EXPECT_EQ(sim.wheelAngle(Side::kLeft), other.wheelAngle(Side::kLeft));
 }
 
 TEST(SimPhysics, WheelsFollowTheMotorTimeConstant) {

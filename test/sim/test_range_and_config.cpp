@@ -166,6 +166,19 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
       "robot.yaml");
   EXPECT_EQ(weak_back.backward_gain_ratio_left, 0.95);
   EXPECT_EQ(weak_back.backward_gain_ratio_right, 1.0);
+  EXPECT_EQ(r.backlash_rad, 0.0);
+  EXPECT_EQ(r.wheel_slip_sigma, 0.0);
+  const sim::RobotConfig worn = sim::parseRobotConfig(
+      replaced(replaced(base, "backlash_rad: 0.0", "backlash_rad: 0.04"), "wheel_slip_sigma: 0.0",
+               "wheel_slip_sigma: 0.01"),
+      "robot.yaml");
+  EXPECT_EQ(worn.backlash_rad, 0.04);
+  EXPECT_EQ(worn.wheel_slip_sigma, 0.01);
+  EXPECT_NE(robotError(replaced(base, "backlash_rad: 0.0", "backlash_rad: -0.01")).find("backlash_rad"),
+            std::string::npos);
+  EXPECT_NE(robotError(replaced(base, "wheel_slip_sigma: 0.0", "wheel_slip_sigma: 0.5"))
+                .find("wheel_slip_sigma"),
+            std::string::npos);
   EXPECT_NE(robotError(replaced(base, "breakaway_duty_left: 0.08", "breakaway_duty_left: 0.05"))
                 .find("breakaway_duty_left: must be in [deadband"),
             std::string::npos);

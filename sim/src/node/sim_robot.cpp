@@ -53,6 +53,7 @@ SimRobot::SimRobot(ros::NodeHandle nh, const SimNodeOptions& options, const std:
       wheels_cmd_link_(robot.transport.wheels_cmd, static_cast<uint64_t>(seed) * 8 + 7) {
   SimulationOptions sim_options;
   sim_options.physics_rate_hz = options_.physics_rate_hz;
+  sim_options.seed = static_cast<uint64_t>(seed) * 8;
   sim_ = std::make_unique<Simulation>(robot_, world_, sim_options);
   // Every random source has its own seed derived from the robot's seed.
   camera_rng_.seed(static_cast<uint64_t>(seed) * 2 + 1);

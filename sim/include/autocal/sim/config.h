@@ -80,6 +80,13 @@ struct RobotConfig {
   double backward_gain_ratio_right = 1.0;
   /// Relative change of both motors' gains per minute of simulated time (battery, temperature).
   double gain_drift_per_min = 0.0;
+  /// Gearbox play at the wheel [rad]: after a reversal the motor turns through it before the
+  /// wheel moves.
+  double backlash_rad = 0.0;
+  /// Random slip of each wheel: its contact point moves by (1 - slip) of its rim's speed, slip
+  /// drawn from N(0, wheel_slip_sigma) every wheel_slip_interval_s [s].
+  double wheel_slip_sigma = 0.0;
+  double wheel_slip_interval_s = 0.2;
   TransportConfig transport;
   CameraConfig camera;
   RangeSensorConfig range_sensor;

@@ -8,7 +8,9 @@
 // velocity is never set directly, so collisions with walls, board stands and obstacles push back
 // and a wheel that cannot grip slips (its encoder still counts its rotation). What a real motor
 // adds is optional (RobotConfig): static friction (a breakaway duty above the running deadband,
-// from rest), a gain that differs backward, and a gain that drifts with time.
+// from rest), a gain that differs backward, a gain that drifts with time, gearbox backlash (the
+// wheel stands while the motor crosses the play after a reversal) and a small random slip of each
+// wheel (its contact point moves by 1 - slip of its rim's speed, slip redrawn at intervals).
 #pragma once
 
 #include <Eigen/Core>
@@ -41,6 +43,7 @@ struct SimulationOptions {
   /// lag alone lets it creep on, ever slower, for about 0.6 s; the code before, for the
   /// benchmark's side by side).
   bool hold_stopped_wheels = true;
+  uint64_t seed = 1;  ///< of the wheels' random slip (RobotConfig::wheel_slip_sigma)
 };
 
 /// Steady-state wheel speed [rad/s] of a motor for a duty in [-1, 1]: zero within the deadband,
@@ -74,7 +77,8 @@ class Simulation {
   double yawRate() const;
   /// True world position of a wheel's contact point.
   Eigen::Vector2d wheelContact(Side side) const;
-  /// Cumulative wheel rotation [rad] and current wheel speed [rad/s].
+  /// Cumulative wheel rotation [rad] and current wheel speed [rad/s] (the motor's, but for the
+  /// gearbox's play: RobotConfig::backlash_rad).
   double wheelAngle(Side side) const { return wheel_angle_rad_[static_cast<int>(side)]; }
   double wheelSpeed(Side side) const { return wheel_speed_rad_s_[static_cast<int>(side)]; }
   /// Cumulative encoder ticks: the wheel rotation quantised to the encoder resolution.
@@ -111,8 +115,13 @@ class Simulation {
   std::unique_ptr<b2World> world_;
   b2Body* body_ = nullptr;
   double duty_[2] = {0, 0};
+  double motor_speed_rad_s_[2] = {0, 0};  ///< at the wheel's scale (after the gearbox)
   double wheel_speed_rad_s_[2] = {0, 0};
   double wheel_angle_rad_[2] = {0, 0};
+  double play_rad_[2] = {0, 0};  ///< where the motor stands in the gearbox's play, |.| <= backlash/2
+  double slip_[2] = {0, 0};      ///< each wheel's slip: its contact moves by (1 - slip) x rim speed
+  double next_slip_s_ = 0;
+  std::mt19937_64 slip_rng_;
   double radius_m_[2];
   double gain_[2];
   /// A coasting wheel slower than this stops (the rest of its coast: 1/20 encoder tick) [rad/s].

@@ -4,7 +4,7 @@
 Draws N robots (seeded) from sim/config/robot_real.yaml: intrinsics within the real fleet's ranges
 (fx 317-361 px, cx 300-336, cy 210-256, k1 -0.32..-0.25, k2 0.04..0.09, p1 and p2 within
 +-0.005), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
-backward gains and a gain drift within their documented ranges, and the transport of
+backward gains, a gain drift, gearbox backlash and wheel slip within their documented ranges, and the transport of
 robot_real.yaml. Each robot runs `rosrun autocal calibrate_sim` (camera and wheel stages; with
 --odometry also the UAH stage) at each real-time factor given (1: a robot's own computer; 3: one
 three times slower), on its own master. From the simulator's truth (compare_camera,
@@ -59,6 +59,8 @@ def draw_robot(base, rng):
     r["backward_gain_ratio_left"] = round(rng.uniform(0.95, 1.05), 3)
     r["backward_gain_ratio_right"] = round(rng.uniform(0.95, 1.05), 3)
     r["gain_drift_per_min"] = round(rng.uniform(-0.01, 0.0), 4)
+    r["backlash_rad"] = round(rng.uniform(0.0, 0.06), 3)
+    r["wheel_slip_sigma"] = round(rng.uniform(0.0, 0.003), 4)
     return r
 
 

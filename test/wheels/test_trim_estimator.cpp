@@ -124,6 +124,7 @@ TEST(TrimEstimator, ADivergingRatioFails) {
 TEST(TrimEstimator, NoConvergenceWithinTheBoundFails) {
   wheels::TrimEstimatorOptions o;
   o.max_iterations = 4;
+  o.mean_of_drives = 0;  // the paper's rule alone
   wheels::TrimEstimator est(o);
   const double phi = 15;
   // A heading change that alternates sign never lets the updates fall below E.
@@ -131,6 +132,12 @@ TEST(TrimEstimator, NoConvergenceWithinTheBoundFails) {
   EXPECT_NO_THROW(est.addDrive(-0.1, phi));
   EXPECT_NO_THROW(est.addDrive(0.1, phi));
   EXPECT_THROW(est.addDrive(-0.1, phi), CalibrationError);
+  // With the mean: more_drives_for_mean more, and the mean of the last four is far from sure.
+  o.mean_of_drives = 4;
+  o.more_drives_for_mean = 2;
+  wheels::TrimEstimator meaned(o);
+  for (int i = 0; i < 5; ++i) EXPECT_NO_THROW(meaned.addDrive(i % 2 ? -0.1 : 0.1, phi));
+  EXPECT_THROW(meaned.addDrive(-0.1, phi), CalibrationError);
 }
 
 TEST(TrimEstimator, BadInputAndOptions) {
@@ -140,4 +147,45 @@ TEST(TrimEstimator, BadInputAndOptions) {
   wheels::TrimEstimatorOptions o;
   o.damping = 0;
   EXPECT_THROW(o.validate(), ConfigError);
+}
+
+// Wheels that slip at random make each drive's heading scatter by more than E allows three times
+// in a row; after max_iterations the mean of the last drives' ratios is the result when it is sure
+// enough, and the stage fails, saying why, when it is not.
+TEST(TrimEstimator, ScatteredDrivesEndInTheMeanOfTheLastOnesWhenItIsSureEnough) {
+  const double c = 1.03, noise_rad = 0.004;  // 0.23° per reading
+  int meaned = 0;
+  double worst = 0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    wheels::TrimEstimatorOptions paper;
+    paper.mean_of_drives = 0;
+    bool paper_failed = false;
+    try {
+      calibrate(c, noise_rad, seed, paper);
+    } catch (const CalibrationError&) {
+      paper_failed = true;
+    }
+    wheels::TrimEstimatorOptions o;
+    const Outcome out = calibrate(c, noise_rad, seed, o);
+    if (paper_failed) {
+      ++meaned;
+      EXPECT_GE(out.drives, o.max_iterations);
+      EXPECT_LE(out.drives, o.max_iterations + o.more_drives_for_mean);
+    }
+    worst = std::max(worst, std::abs(out.ratio * c - 1));
+  }
+  EXPECT_GE(meaned, 5) << "the noise should often defeat the paper's rule";
+  // Twelve 0.5 m drives, each's ratio ±0.0011 (two readings of 0.004 rad): the mean within ~3
+  // sigma.
+  EXPECT_LT(worst, 0.001);
+
+  wheels::TrimEstimatorOptions o;
+  try {
+    calibrate(c, 0.02, 3, o);
+    ADD_FAILURE() << "a heading scattering by 1.1° per reading should not give a ratio";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("the heading scatters from drive to drive"),
+              std::string::npos)
+        << e.what();
+  }
 }

@@ -7,6 +7,10 @@
 // by a damped step — the paper's (k_i − 1)/2 — an update whose size is below E is ignored, and
 // three ignored in a row end the calibration.
 //
+// On a floor where the wheels slip at random, each drive's heading carries noise that may keep
+// updates above E; after max_iterations drives the mean of the last drives' ratios is taken once
+// its standard error is small enough (TrimEstimatorOptions::mean_of_drives).
+//
 // Beyond the paper: far from straight (|k_i − 1| ≥ full_step_above), where a drive's noise is small
 // against its signal, the step is the whole correction, so a robot 20 % off converges in a few
 // drives instead of eight halvings; once converged, k is the mean of what the ignored drives
@@ -39,6 +43,14 @@ struct TrimEstimatorOptions {
   int max_rejected_in_a_row = 3;
   /// Drives in all (counted or not) before the calibration fails unconverged.
   int max_iterations = 14;
+  /// Beyond the paper, for a robot whose wheels slip at random: once max_iterations drives pass
+  /// without three small updates in a row, the last `mean_of_drives` plausible drives' ratios
+  /// (k / k_i each) are averaged after each drive, and the mean is the result as soon as its
+  /// standard error is at most `max_mean_error` [1]; after `more_drives_for_mean` more drives
+  /// without it the calibration fails. mean_of_drives 0: off.
+  int mean_of_drives = 12;
+  double max_mean_error = 0.0005;
+  int more_drives_for_mean = 8;
   /// k leaving [1/(1+d), 1+d] means the estimate diverged: failure.
   double max_ratio_deviation = 0.6;
   /// Nominal wheel radius R and wheelbase L (Duckietown's defaults) [m]: their error scales every
@@ -85,6 +97,10 @@ class TrimEstimator {
   const TrimEstimatorOptions& options() const { return options_; }
 
  private:
+  /// The mean of the last mean_of_drives plausible drives' ratios and its standard error; true
+  /// when there are that many and the error is at most max_mean_error.
+  bool meanOfLastDrives(double* mean, double* standard_error) const;
+
   TrimEstimatorOptions options_;
   double ratio_;
   bool converged_ = false;

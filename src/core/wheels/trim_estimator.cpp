@@ -1,6 +1,8 @@
 #include "autocal/wheels/trim_estimator.h"
 
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
@@ -20,6 +22,10 @@ void TrimEstimatorOptions::validate() const {
   if (max_rejected_in_a_row < 1) throw ConfigError("max_rejected_in_a_row: must be >= 1");
   if (max_iterations < ignored_to_converge)
     throw ConfigError("max_iterations: must be >= ignored_to_converge");
+  if (mean_of_drives < 0) throw ConfigError("mean_of_drives: must be >= 0");
+  if (mean_of_drives == 1) throw ConfigError("mean_of_drives: must be 0 (off) or >= 2");
+  if (!(max_mean_error > 0)) throw ConfigError("max_mean_error: must be > 0");
+  if (more_drives_for_mean < 0) throw ConfigError("more_drives_for_mean: must be >= 0");
   if (!(max_ratio_deviation > 0)) throw ConfigError("max_ratio_deviation: must be > 0");
   if (!(wheel_radius_m > 0)) throw ConfigError("wheel_radius_m: must be > 0 [m]");
   if (!(wheelbase_m > 0)) throw ConfigError("wheelbase_m: must be > 0 [m]");
@@ -90,12 +96,45 @@ const TrimIteration& TrimEstimator::addDrive(double delta_theta_rad, double left
                            formatNumber(1 / (1 + d), 4) + ".." + formatNumber(1 + d, 4) + ")");
   }
   if (!converged_ && iterations() >= options_.max_iterations) {
-    throw CalibrationError("the wheel ratio did not converge in " +
-                           std::to_string(options_.max_iterations) + " drives (k " +
-                           formatNumber(ratio_, 4) + ", last update " +
-                           formatNumber(history_.back().step, 4) + ")");
+    double mean = 0, error = 0;
+    const int limit = options_.max_iterations +
+                      (options_.mean_of_drives > 0 ? options_.more_drives_for_mean : 0);
+    if (meanOfLastDrives(&mean, &error)) {
+      ratio_ = mean;
+      history_.back().ratio_after = ratio_;
+      converged_ = true;
+    } else if (iterations() >= limit) {
+      throw CalibrationError(
+          "the wheel ratio did not converge in " + std::to_string(iterations()) + " drives (k " + formatNumber(ratio_, 4) + ", last update " +
+          formatNumber(history_.back().step, 4) +
+          (options_.mean_of_drives > 0 ? "; the last drives' mean is ±" + formatNumber(error, 2) +
+                                             " sure, for at most ±" +
+                                             formatNumber(options_.max_mean_error, 2) +
+                                             ": the heading scatters from drive to drive"
+                                       : "") +
+          ")");
+    }
   }
   return history_.back();
+}
+
+bool TrimEstimator::meanOfLastDrives(double* mean, double* standard_error) const {
+  const int n = options_.mean_of_drives;
+  std::vector<double> ratios;
+  for (auto it = history_.rbegin(); it != history_.rend() && static_cast<int>(ratios.size()) < n;
+       ++it) {
+    if (!it->rejected) ratios.push_back(it->ratio_before / it->k_i);
+  }
+  if (n < 2 || static_cast<int>(ratios.size()) < n) {
+    *standard_error = std::numeric_limits<double>::infinity();
+    return false;
+  }
+  double sum = 0, squares = 0;
+  for (double r : ratios) sum += r;
+  *mean = sum / n;
+  for (double r : ratios) squares += (r - *mean) * (r - *mean);
+  *standard_error = std::sqrt(squares / (n - 1) / n);
+  return *standard_error <= options_.max_mean_error;
 }
 
 void TrimEstimator::rebase(double ratio) {

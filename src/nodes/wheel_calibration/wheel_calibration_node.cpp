@@ -79,6 +79,9 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("damping", r.trim.damping);
   p.get("full_step_above", r.trim.full_step_above);
   p.get("max_iterations", r.trim.max_iterations);
+  p.get("mean_of_drives", r.trim.mean_of_drives);
+  p.get("max_mean_error", r.trim.max_mean_error);
+  p.get("more_drives_for_mean", r.trim.more_drives_for_mean);
   p.get("compensate_deadband", r.compensate_deadband);
   p.get("drive_speed_mps", r.drive_speed_mps);
   p.get("back_speed_mps", r.back_speed_mps);

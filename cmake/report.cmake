@@ -99,7 +99,7 @@ if(CATKIN_ENABLE_TESTING)
   add_rostest(test/report/calibrate_run.test
     DEPENDENCIES test_calibrate_run camera_calibration_node wheel_calibration_node
                  odometry_calibration_node run_report_node sim_node)
-  # Robot mode (real_time_factor 1, robot_real.yaml): the camera and wheel stages, about 2.5 min.
+  # Robot mode (real_time_factor 1, robot_real.yaml): the camera and wheel stages, about 3.5 min.
   add_rostest(test/report/calibrate_run_robot.test
     DEPENDENCIES test_calibrate_run camera_calibration_node wheel_calibration_node
                  run_report_node sim_node)

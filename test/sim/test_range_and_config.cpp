@@ -149,6 +149,8 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   EXPECT_GT(real.breakaway_duty_right, real.deadband);
   EXPECT_LT(real.gain_drift_per_min, 0.0);
   EXPECT_NE(real.backward_gain_ratio_left, 1.0);
+  EXPECT_GT(real.backlash_rad, 0.0);
+  EXPECT_GT(real.wheel_slip_sigma, 0.0);
   EXPECT_GE(real.transport.camera.latency_s, 0.05);
   EXPECT_GT(real.transport.camera.drop_probability, 0.0);
   EXPECT_GT(real.transport.encoders.latency_s, 0.0);

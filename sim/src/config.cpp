@@ -168,6 +168,8 @@ RobotConfig readRobot(YamlMap& m) {
   if (c.supersampling < 1 || c.supersampling > 16) cam.fail("supersampling", "must be 1..16");
   c.jpeg_quality = cam.optional<int>("jpeg_quality", c.jpeg_quality);
   if (c.jpeg_quality < 1 || c.jpeg_quality > 100) cam.fail("jpeg_quality", "must be 1..100");
+  c.vignetting = inRange(cam, "vignetting", c.vignetting, 0.0, 0.9);
+  c.brightness_sigma = inRange(cam, "brightness_sigma", c.brightness_sigma, 0.0, 0.3);
   YamlMap nominal = cam.map("nominal");
   c.nominal = readIntrinsics(nominal, false, c.truth.width, c.truth.height);
   nominal.finish();

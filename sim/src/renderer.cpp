@@ -146,6 +146,8 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
     half.truth.fy = 0.5 * camera.truth.fy;
     half.truth.cx = 0.5 * (camera.truth.cx - 0.5);
     half.truth.cy = 0.5 * (camera.truth.cy - 0.5);
+    half.vignetting = 0.0;  // the shading is applied once, to the full-resolution frame
+    half.brightness_sigma = 0.0;
     RenderOptions half_options = options_;
     half_options.blur_half_res_poses = 0;
     half_options.supersampling = 1;
@@ -157,6 +159,23 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
   // (A renderer without noise, the half-resolution one, keeps no table.)
   noise_table_.resize(options_.noise_sigma > 0 ? static_cast<size_t>(width_) * height_ * 3 * 4 : 0);
   for (float& x : noise_table_) x = normal(gen);
+  // Vignetting: brightness falls with the square of the distance from the principal point, by
+  // `vignetting` at the farthest image corner.
+  if (camera.vignetting > 0) {
+    const double cx = camera.truth.cx, cy = camera.truth.cy;
+    double corner2 = 0;
+    for (double u : {-0.5, width_ - 0.5}) {
+      for (double v : {-0.5, height_ - 0.5}) corner2 = std::max(corner2, (u - cx) * (u - cx) + (v - cy) * (v - cy));
+    }
+    vignette_.create(height_, width_, CV_32FC3);
+    for (int v = 0; v < height_; ++v) {
+      auto* row = vignette_.ptr<cv::Vec3f>(v);
+      for (int u = 0; u < width_; ++u) {
+        const double r2 = (u - cx) * (u - cx) + (v - cy) * (v - cy);
+        row[u] = cv::Vec3f::all(static_cast<float>(1.0 - camera.vignetting * r2 / corner2));
+      }
+    }
+  }
 }
 
 Renderer::~Renderer() = default;
@@ -436,20 +455,43 @@ const cv::Mat& Renderer::renderNoiseless(const std::vector<Pose2>& poses) {
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) {
   if (poses.empty()) throw InputError("renderer: no pose to render");
   const cv::Mat& acc = renderNoiseless(poses);
+  // The frame's brightness (auto-exposure and light that vary), drawn only when it varies.
+  double gain = 1.0;
+  if (config_.brightness_sigma > 0) {
+    gain = std::clamp(1.0 + std::normal_distribution<double>(0.0, config_.brightness_sigma)(rng),
+                      0.2, 3.0);
+  }
+  const bool shaded = gain != 1.0 || !vignette_.empty();
   cv::Mat out(height_, width_, CV_8UC3);
-  if (noise_table_.empty()) {  // no noise
+  if (noise_table_.empty() && !shaded) {
     acc.convertTo(out, CV_8UC3);
     return out;
   }
-  const size_t n = static_cast<size_t>(width_) * height_ * 3;
-  const size_t offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
-  // Noise added, then rounded and saturated to 0..255, row by row through a one-row buffer that
-  // stays in the cache (an image-sized float buffer in between cost memory traffic: a large part
-  // of a frame's time is moving image-sized buffers).
-  const cv::Mat noise(height_, width_, CV_32FC3, const_cast<float*>(noise_table_.data() + offset));
+  size_t offset = 0;
+  if (!noise_table_.empty()) {
+    const size_t n = static_cast<size_t>(width_) * height_ * 3;
+    offset = std::uniform_int_distribution<size_t>(0, noise_table_.size() - n)(rng);
+  }
+  // Shaded, noise added, then rounded and saturated to 0..255, row by row through one-row buffers
+  // that stay in the cache (an image-sized float buffer in between cost memory traffic: a large
+  // part of a frame's time is moving image-sized buffers).
   for (int v = 0; v < height_; ++v) {
-    cv::scaleAdd(noise.row(v), options_.noise_sigma, acc.row(v), noisy_row_);
-    noisy_row_.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255
+    cv::Mat row = acc.row(v);
+    if (shaded) {
+      if (vignette_.empty()) {
+        row.convertTo(shaded_row_, CV_32FC3, gain);
+      } else {
+        cv::multiply(row, vignette_.row(v), shaded_row_, gain);
+      }
+      row = shaded_row_;
+    }
+    if (!noise_table_.empty()) {
+      const cv::Mat noise(1, width_, CV_32FC3,
+                          const_cast<float*>(noise_table_.data() + offset + static_cast<size_t>(v) * width_ * 3));
+      cv::scaleAdd(noise, options_.noise_sigma, row, noisy_row_);
+      row = noisy_row_;
+    }
+    row.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255
   }
   return out;
 }

@@ -314,6 +314,59 @@ TEST(SimRenderer, SameSeedSameImageOtherSeedOtherNoise) {
   EXPECT_NEAR(stddev[0] / std::sqrt(2.0), robot.camera.noise_sigma, 0.2 * robot.camera.noise_sigma);
 }
 
+// Vignetting darkens a pixel by `vignetting` times its squared distance from the principal point
+// over the farthest corner's; a frame's brightness scales by 1 + N(0, brightness_sigma).
+TEST(SimRenderer, VignettingAndBrightnessScaleThePixelsAsConfigured) {
+  sim::RobotConfig robot = defaultRobot();
+  robot.camera.noise_sigma = 0;
+  sim::RobotConfig shaded = robot;
+  shaded.camera.vignetting = 0.4;
+  sim::Renderer plain(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  sim::Renderer dark(shaded.camera, defaultWorld(), optionsOf(shaded.camera));
+  std::mt19937_64 rng(1);
+  const std::vector<sim::Pose2> pose{{0, 0, 0.1}};
+  cv::Mat a, b;
+  plain.render(pose, rng).convertTo(a, CV_64FC3);
+  dark.render(pose, rng).convertTo(b, CV_64FC3);
+  const sim::Intrinsics& in = robot.camera.truth;
+  double corner2 = 0;
+  for (double u : {-0.5, in.width - 0.5}) {
+    for (double v : {-0.5, in.height - 0.5}) {
+      corner2 = std::max(corner2, (u - in.cx) * (u - in.cx) + (v - in.cy) * (v - in.cy));
+    }
+  }
+  int checked = 0;
+  for (int v = 0; v < in.height; v += 7) {
+    for (int u = 0; u < in.width; u += 7) {
+      const double lit = a.at<cv::Vec3d>(v, u)[1];
+      if (lit < 60) continue;  // rounding dominates dark pixels
+      const double r2 = (u - in.cx) * (u - in.cx) + (v - in.cy) * (v - in.cy);
+      // Both images rounded to whole grey levels: within half a level each.
+      ASSERT_NEAR(b.at<cv::Vec3d>(v, u)[1], lit * (1 - 0.4 * r2 / corner2), 1.0) << u << "," << v;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 1000);
+
+  sim::RobotConfig varying = robot;
+  varying.camera.brightness_sigma = 0.1;
+  sim::Renderer flicker(varying.camera, defaultWorld(), optionsOf(varying.camera));
+  cv::Mat green;
+  cv::extractChannel(a, green, 1);
+  const cv::Mat mask = (green < 200) & (green > 20);  // not saturated when brightened
+  std::vector<double> ratios;
+  for (int k = 0; k < 40; ++k) {
+    cv::Mat f;
+    flicker.render(pose, rng).convertTo(f, CV_64FC3);
+    ratios.push_back(cv::mean(f, mask)[1] / cv::mean(a, mask)[1]);
+  }
+  double mean = 0, var = 0;
+  for (double r : ratios) mean += r / ratios.size();
+  for (double r : ratios) var += (r - mean) * (r - mean) / (ratios.size() - 1);
+  EXPECT_NEAR(mean, 1.0, 0.05);
+  EXPECT_NEAR(std::sqrt(var), 0.1, 0.035);
+}
+
 TEST(SimRenderer, MotionDuringExposureBlursTheImage) {
   const sim::RobotConfig robot = defaultRobot();
   sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));

@@ -33,6 +33,11 @@ struct CameraConfig {
   double exposure_s = 0.02;  ///< motion during this time blurs the image
   int supersampling = 3;     ///< edge pixels get supersampling^2 samples (anti-aliasing)
   int jpeg_quality = 90;
+  /// Brightness lost at the farthest image corner (falling with the squared distance from the
+  /// principal point), 0..0.9.
+  double vignetting = 0.0;
+  /// Each frame's brightness is scaled by 1 + N(0, brightness_sigma) (auto-exposure, light).
+  double brightness_sigma = 0.0;
 };
 
 struct RangeSensorConfig {

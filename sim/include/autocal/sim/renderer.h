@@ -139,7 +139,8 @@ class Renderer {
   Pose2 still_pose_;
   double still_nearest_m_ = 0;
   double nearest_m_ = 0;
-  cv::Mat accumulator_, noisy_row_;  ///< per-frame buffers, kept between frames
+  cv::Mat vignette_;  ///< each pixel's brightness factor (CameraConfig::vignetting); empty: none
+  cv::Mat accumulator_, noisy_row_, shaded_row_;  ///< per-frame buffers, kept between frames
   uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
   /// The same camera at half resolution, for blurred frames of many poses (null: not used).
   std::unique_ptr<Renderer> half_;

@@ -1,6 +1,7 @@
 #include "autocal/sim/config.h"
 
 #include <cmath>
+#include <random>
 
 #include "autocal/errors.h"
 #include "autocal/io/yaml_reader.h"
@@ -230,6 +231,23 @@ WorldConfig readWorld(YamlMap& m) {
     c.pose = readPose(t);
     t.finish();
     w.floor_tags.push_back(c);
+  }
+  // Placement errors: each tag lies off its nominal place by a Gaussian offset, drawn from the
+  // seed; the offsets become the tags' true poses (what the renderer draws).
+  if (m.has("floor_tag_placement")) {
+    YamlMap e = m.map("floor_tag_placement");
+    const double sigma_m = inRange(e, "position_sigma_m", 0.0, 0.0, 0.02);
+    const double sigma_rad = inRange(e, "yaw_sigma_rad", 0.0, 0.0, 0.1);
+    const int seed = e.optional<int>("seed", 1);
+    if (seed < 0) e.fail("seed", "must be >= 0");
+    e.finish();
+    std::mt19937_64 rng(static_cast<uint64_t>(seed));
+    std::normal_distribution<double> unit(0.0, 1.0);
+    for (FloorTagConfig& t : w.floor_tags) {
+      t.pose.x_m += sigma_m * unit(rng);
+      t.pose.y_m += sigma_m * unit(rng);
+      t.pose.yaw_rad += sigma_rad * unit(rng);
+    }
   }
   for (YamlMap& b : m.optionalMapList("floor_boards")) {
     FloorBoardConfig c;

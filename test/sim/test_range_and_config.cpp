@@ -216,6 +216,40 @@ TEST(SimConfig, MalformedOrMissingValuesAreErrors) {
   EXPECT_THROW(sim::loadRobotConfig("/nonexistent/robot.yaml"), autocal::ConfigError);
 }
 
+// Tags placed by a person: each off its listed place by N(0, sigma) in x, y and yaw, from the seed.
+TEST(SimConfig, FloorTagPlacementErrorsMoveTheTagsBySigmaFromTheSeed) {
+  const std::string base = slurp(kSource + "/sim/config/world.yaml");
+  const sim::WorldConfig nominal = sim::parseWorldConfig(base, "world.yaml");
+  const std::string placed_yaml =
+      replaced(base, "floor_tag_placement: {position_sigma_m: 0.0, yaw_sigma_rad: 0.0, seed: 1}",
+               "floor_tag_placement: {position_sigma_m: 0.004, yaw_sigma_rad: 0.03, seed: 3}");
+  const sim::WorldConfig placed = sim::parseWorldConfig(placed_yaml, "world.yaml");
+  const sim::WorldConfig again = sim::parseWorldConfig(placed_yaml, "world.yaml");
+  const sim::WorldConfig other = sim::parseWorldConfig(
+      replaced(placed_yaml, "yaw_sigma_rad: 0.03, seed: 3", "yaw_sigma_rad: 0.03, seed: 4"),
+      "world.yaml");
+  ASSERT_EQ(placed.floor_tags.size(), nominal.floor_tags.size());
+  ASSERT_GE(placed.floor_tags.size(), 5u);
+  double position2 = 0, yaw2 = 0;
+  for (size_t i = 0; i < placed.floor_tags.size(); ++i) {
+    const sim::Pose2 &p = placed.floor_tags[i].pose, &n = nominal.floor_tags[i].pose;
+    position2 += std::pow(p.x_m - n.x_m, 2) + std::pow(p.y_m - n.y_m, 2);
+    yaw2 += std::pow(p.yaw_rad - n.yaw_rad, 2);
+    EXPECT_EQ(p.x_m, again.floor_tags[i].pose.x_m);
+    EXPECT_EQ(p.yaw_rad, again.floor_tags[i].pose.yaw_rad);
+    EXPECT_NE(p.yaw_rad, other.floor_tags[i].pose.yaw_rad);
+  }
+  const double n = static_cast<double>(placed.floor_tags.size());
+  EXPECT_GT(std::sqrt(position2 / (2 * n)), 0.4 * 0.004);
+  EXPECT_LT(std::sqrt(position2 / (2 * n)), 1.8 * 0.004);
+  EXPECT_GT(std::sqrt(yaw2 / n), 0.4 * 0.03);
+  EXPECT_LT(std::sqrt(yaw2 / n), 1.8 * 0.03);
+  EXPECT_THROW(sim::parseWorldConfig(replaced(placed_yaml, "position_sigma_m: 0.004",
+                                              "position_sigma_m: 0.5"),
+                                     "world.yaml"),
+               autocal::ConfigError);
+}
+
 TEST(SimConfig, WorldErrorsNameTheListEntry) {
   try {
     sim::parseWorldConfig("chessboards:\n  - {cols: 7, rows: 5, square_m: 0.03, x_m: 1, y_m: 0, center_z_m: 0.15, colour: red}\n",

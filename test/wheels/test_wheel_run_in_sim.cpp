@@ -374,7 +374,7 @@ TEST(WheelRunInSim, RealRobotLateMessagesStaticFrictionLostFrames) {
 }
 
 // The passive replay (replay.launch's wheel stage) recomputes the live run from what a recording
-// holds: the same trim within 0.002 (issue: within 0.005) and deadbands within 0.003, and so drives
+// holds: the same trim within 0.002 and deadbands within 0.003, and so drives
 // as straight by the truth; the intrinsics come 15 s into the recording, the frames wanted before
 // are kept and detected then.
 /// The replay starts from the default kinematics, as the node's replay does (it does not see the

@@ -172,6 +172,12 @@ class UahRun {
   void startTurn(UahExperiment experiment, double now_s);
   void startStraight(double now_s);
   void stop(double now_s);
+  /// One control step of a turn (pivots and the spin, §2.1) or of a straight run (§2.3).
+  WheelDuties updateTurn(double now_s, double dt_s);
+  WheelDuties updateStraight(double now_s, double dt_s);
+  /// A driven wheel's duty towards a pulse rate; FAILED when the wheel stalls.
+  void follow(int side, double target_pulses_per_s, double dt_s);
+  void checkStall(int side, double now_s);
   bool settled(double now_s) const;
   void onSettled(double now_s);
   void finishTurn();

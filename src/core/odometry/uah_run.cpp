@@ -461,77 +461,80 @@ WheelDuties UahRun::update(double now_s) {
   }
   if (motion_ == Motion::kNone) return {};
   motion_clock_.start(now_s);
+  return motion_ == Motion::kTurn ? updateTurn(now_s, dt) : updateStraight(now_s, dt);
+}
+
+void UahRun::follow(int side, double target_pulses_per_s, double dt_s) {
+  // Integral control on the wheel's pulse rate: the robot's deadbands and motor gains are unknown
+  // here.
+  duty_mag_[side] = followRate(duty_mag_[side], wheelRate(side, kRateWindowS), target_pulses_per_s,
+                               options_.rate_gain_per_s, dt_s, options_.max_duty);
+}
+
+void UahRun::checkStall(int side, double now_s) {
+  const std::string stall =
+      stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
+  if (!stall.empty()) fail(std::string(name(experiment_)) + ": " + stall);
+}
+
+WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
   const double moving_s = motion_clock_.elapsedS(now_s);
-
-  // Each driven wheel's duty follows its pulse-rate error (integral control): the robot's
-  // deadbands and motor gains are unknown here.
-  auto follow = [&](int side, double target) {
-    duty_mag_[side] = followRate(duty_mag_[side], wheelRate(side, kRateWindowS), target,
-                                 options_.rate_gain_per_s, dt, options_.max_duty);
-  };
-  auto checkStall = [&](int side) {
-    const std::string stall =
-        stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
-    if (!stall.empty()) fail(std::string(name(experiment_)) + ": " + stall);
-  };
-
-  if (motion_ == Motion::kTurn) {
-    if (moving_s > options_.range_timeout_s &&
-        now_s - std::max(last_range_arrival_s_, motion_clock_.startS()) >
-            options_.range_timeout_s) {
-      fail(std::string(name(experiment_)) + ": the range sensor went silent");
+  if (moving_s > options_.range_timeout_s &&
+      now_s - std::max(last_range_arrival_s_, motion_clock_.startS()) > options_.range_timeout_s) {
+    fail(std::string(name(experiment_)) + ": the range sensor went silent");
+  }
+  const RoundDetectionOptions det = detectionFor(experiment_);
+  const double nt = det.expected_pulses_per_round;
+  const double p = turnPulses(history_.back());
+  // §2.1: whole rounds come from the autocorrelation of what has been turned so far, checked
+  // every tenth of a round; the turn ends after rounds + 1 detected rounds.
+  if (p >= next_check_pulses_) {
+    next_check_pulses_ = p + nt / 10;
+    try {
+      online_ppr_ = detectWholeRound(turnRangeSamples(), det).pulses_per_round;
+      turn_target_pulses_ = (options_.rounds + 1) * online_ppr_;
+    } catch (const CalibrationError& e) {
+      last_detection_error_ = e.what();
+      // Two expected rounds without a round: refuse a flat scene now rather than turn on.
+      if (p >= 2 * nt * (1 + det.window_fraction)) refuseFlatScene();
     }
-    const RoundDetectionOptions det = detectionFor(experiment_);
-    const double nt = det.expected_pulses_per_round;
-    const double p = turnPulses(history_.back());
-    // §2.1: whole rounds come from the autocorrelation of what has been turned so far, checked
-    // every tenth of a round; the turn ends after rounds + 1 detected rounds.
-    if (p >= next_check_pulses_) {
-      next_check_pulses_ = p + nt / 10;
-      try {
-        online_ppr_ = detectWholeRound(turnRangeSamples(), det).pulses_per_round;
-        turn_target_pulses_ = (options_.rounds + 1) * online_ppr_;
-      } catch (const CalibrationError& e) {
-        last_detection_error_ = e.what();
-        // Two expected rounds without a round: refuse a flat scene now rather than turn on.
-        if (p >= 2 * nt * (1 + det.window_fraction)) refuseFlatScene();
-      }
-    }
-    const double rate = experiment_ == UahExperiment::kSpin ? options_.spin_rate_pulses_per_s
-                                                            : options_.pivot_rate_pulses_per_s;
-    // Stop a little early: the wheel coasts for about its lag (~0.05 s) after the stop.
-    if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - 0.05 * rate) {
-      stop(now_s);
-      return duties_;
-    }
-    const double bound = (options_.rounds + 1.5) * nt * (1 + det.window_fraction);
-    if (p > bound) {
-      refuseFlatScene();
-      fail(std::string(name(experiment_)) + ": no whole round found in " + formatNumber(p / nt, 3) +
-           " expected rounds: " +
-           (last_detection_error_.empty() ? "no detection yet" : last_detection_error_));
-    }
-    switch (experiment_) {
-      case UahExperiment::kPivotLeftStopped:
-        follow(1, rate);
-        checkStall(1);
-        duties_ = {0.0, duty_mag_[1]};
-        break;
-      case UahExperiment::kPivotRightStopped:
-        follow(0, rate);
-        checkStall(0);
-        duties_ = {duty_mag_[0], 0.0};
-        break;
-      default:  // spin counter-clockwise
-        follow(0, rate);
-        follow(1, rate);
-        checkStall(0);
-        checkStall(1);
-        duties_ = {-duty_mag_[0], duty_mag_[1]};
-    }
+  }
+  const double rate = experiment_ == UahExperiment::kSpin ? options_.spin_rate_pulses_per_s
+                                                          : options_.pivot_rate_pulses_per_s;
+  // Stop a little early: the wheel coasts for about its lag (~0.05 s) after the stop.
+  if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - 0.05 * rate) {
+    stop(now_s);
     return duties_;
   }
+  const double bound = (options_.rounds + 1.5) * nt * (1 + det.window_fraction);
+  if (p > bound) {
+    refuseFlatScene();
+    fail(std::string(name(experiment_)) + ": no whole round found in " + formatNumber(p / nt, 3) +
+         " expected rounds: " +
+         (last_detection_error_.empty() ? "no detection yet" : last_detection_error_));
+  }
+  switch (experiment_) {
+    case UahExperiment::kPivotLeftStopped:
+      follow(1, rate, dt_s);
+      checkStall(1, now_s);
+      duties_ = {0.0, duty_mag_[1]};
+      break;
+    case UahExperiment::kPivotRightStopped:
+      follow(0, rate, dt_s);
+      checkStall(0, now_s);
+      duties_ = {duty_mag_[0], 0.0};
+      break;
+    default:  // spin counter-clockwise
+      follow(0, rate, dt_s);
+      follow(1, rate, dt_s);
+      checkStall(0, now_s);
+      checkStall(1, now_s);
+      duties_ = {-duty_mag_[0], duty_mag_[1]};
+  }
+  return duties_;
+}
 
+WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   // A straight run (§2.3): the right wheel at its rate; the left wheel at the rate that keeps
   // N_L·c_L = N_R·c_R (N_L = Ed·N_R), and a PI on the heading error N_R − N_L/Ed [pulses].
   const double dl = straight_dir_ * (encoders_.left() - start_left_);
@@ -541,15 +544,17 @@ WheelDuties UahRun::update(double now_s) {
     stop(now_s);
     return duties_;
   }
-  const double ramp = std::clamp(moving_s / options_.straight_ramp_s, 0.0, 1.0);
-  follow(1, options_.spin_rate_pulses_per_s +
-                ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s));
-  checkStall(0);
-  checkStall(1);
+  const double ramp = std::clamp(motion_clock_.elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
+  follow(1,
+         options_.spin_rate_pulses_per_s +
+             ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s),
+         dt_s);
+  checkStall(0, now_s);
+  checkStall(1, now_s);
   // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
   // the wheels' differences (deadbands, motor gains, Ed).
   const double error = dr - dl / Ed_;
-  heading_integral_ += error * dt;
+  heading_integral_ += error * dt_s;
   const double left = std::clamp(duty_mag_[1] + options_.heading_gain_duty_per_pulse * error +
                                      options_.heading_integral_duty_per_pulse_s * heading_integral_,
                                  0.0, options_.max_duty);

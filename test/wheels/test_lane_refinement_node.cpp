@@ -73,8 +73,33 @@ TEST(LaneRefinementNode, OnePassAppliesTheTrueTrim) {
   ASSERT_TRUE(spinUntil(
       [&] { return status && std::abs(figure(*status, "trim") - start_trim) < 1e-9; }, 30.0))
       << "lane_refinement_node did not take the kinematics node's trim";
-  const ros::WallTime settle = ros::WallTime::now() + ros::WallDuration(1.5);  // kinematics poll
-  spinUntil([&] { return ros::WallTime::now() > settle; }, 5.0);
+  // The kinematics node polls its parameters: wait until its wheels_cmd for a small turn on the
+  // spot is what its parameters (all on the server) now give.
+  autocal::wheels::KinematicsParams kinematics;
+  for (const autocal::wheels::KinematicsField& f : autocal::wheels::kinematicsFields()) {
+    ASSERT_TRUE(nh.getParam(std::string("kinematics_node/") + f.key, kinematics.*f.member)) << f.key;
+  }
+  autocal::wheels::CarCommand nudge;
+  nudge.omega_radps = 0.05;
+  const autocal::WheelDuties wanted = autocal::wheels::carCmdToDuties(kinematics, nudge);
+  std::optional<autocal::WheelDuties> seen;
+  ros::Subscriber wheels_sub = nh.subscribe<autocal::dtmsg::WheelsCmdStamped>(
+      "wheels_driver_node/wheels_cmd", 10, [&](const autocal::dtmsg::WheelsCmdStamped::ConstPtr& m) {
+        seen = autocal::ros_layer::fromWheelsCmd(*m);
+      });
+  int spins = 0;
+  ASSERT_TRUE(spinUntil(
+      [&] {
+        if (seen && std::abs(seen->left - wanted.left) < 1e-6 &&
+            std::abs(seen->right - wanted.right) < 1e-6) {
+          return true;
+        }
+        if (spins++ % 5 == 0) car_cmd.publish(autocal::ros_layer::toCarCmd(nudge, ros::Time::now()));
+        return false;
+      },
+      30.0))
+      << "the kinematics node did not take the trim";
+  wheels_sub.shutdown();
 
   // The lane follower's stand-in until the node takes over.
   ros::Time last_cmd;

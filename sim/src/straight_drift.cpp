@@ -10,7 +10,9 @@ namespace sim {
 double straightDriftM(const RobotConfig& robot, const wheels::KinematicsParams& params,
                       double speed_mps, double distance_m) {
   WorldConfig empty;
-  Simulation simulation(robot, empty, SimulationOptions());
+  RobotConfig without_slip = robot;
+  without_slip.wheel_slip_sigma = 0;
+  Simulation simulation(without_slip, empty, SimulationOptions());
   const WheelDuties d = wheels::carCmdToDuties(params, speed_mps, 0.0);
   simulation.setDuty(d.left, d.right);
   const double max_s = 10.0 * distance_m / speed_mps;

@@ -143,6 +143,12 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   // it the logging and the publishers the failure path needs.
   ros::NodeHandle nh, pnh("~");
   StatusPublisher status(nh, options.status_topic);
+  // Every node's ~failure_linger_s: a monitor started with the node (a test, a fleet dashboard)
+  // may subscribe only after a failure found at start-up, and the latched FAILED goes with the
+  // process.
+  double linger_s = options.failure_linger_s;
+  pnh.param("failure_linger_s", linger_s, linger_s);
+  if (!std::isfinite(linger_s) || linger_s < 0) linger_s = options.failure_linger_s;
   // Advertised only to stop: a simulator that waits for a controller starts its clock when a
   // wheels_cmd publisher appears, and the node advertises its own once its inputs are connected.
   // In the same process both share one connection, so the stop reaches the same subscribers.
@@ -158,7 +164,7 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
     status.failed(options.phase, reason);
     ROS_FATAL_STREAM(options.name << ": " << exitCodeMeaning(code) << ": " << reason);
     // Give the latched FAILED a moment to reach subscribers that are connecting now.
-    ros::WallDuration(options.failure_linger_s).sleep();
+    ros::WallDuration(linger_s).sleep();
     ros::shutdown();
     return toInt(code);
   };

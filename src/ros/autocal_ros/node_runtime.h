@@ -150,8 +150,9 @@ struct NodeRunOptions {
   bool commands_wheels = true;  ///< stop the wheels on failure and interrupt
   std::string wheels_topic = "wheels_driver_node/wheels_cmd";
   /// How long [wall s] a failed node keeps its latched FAILED up before it exits, for subscribers
-  /// that are still connecting (a node started with it in the same launch).
-  double failure_linger_s = 0.2;
+  /// that are still connecting (a node started with it in the same launch); the node's private
+  /// parameter ~failure_linger_s overrides it.
+  double failure_linger_s = 1.0;
   /// Exit 130 with FAILED "interrupted" once the stage has started (published a phase other than
   /// "<stage>/wait"); before that, and when false, an interrupt ends the node quietly with 0.
   bool interrupt_is_failure = true;

@@ -8,6 +8,7 @@
 #include "autocal/errors.h"
 #include "autocal/extrinsics/floor_board.h"
 #include "autocal/extrinsics/ground_projection.h"
+#include "autocal/extrinsics/tag_mount.h"
 
 namespace {
 
@@ -36,6 +37,41 @@ TEST(GroundProjection, MountToHomographyAndBack) {
     const CameraMount flipped = mountFromHomography(-H, cam);  // the sign of a scale too
     EXPECT_NEAR(flipped.height_m, m.height_m, 1e-9);
   }
+}
+
+// floorSigmaM against the ground projection itself: the pixel that shows the floor point 0.5 m
+// ahead of the camera, put back on the floor through a mount moved by one small sigma at a time.
+TEST(FloorSigma, MatchesHowFarEachMountErrorMovesTheFloorPointAhead) {
+  const RectifiedCamera cam = someCamera();
+  const CameraMount m{0.105, 0.26, 0.0, 0.0, 0.055, 0.0};
+  const double d = 0.5;
+  const Eigen::Vector2d point(m.x_m + d, m.y_m);
+  const Eigen::Vector2d pixel = groundToPixel(homographyFromMount(m, cam), point);
+  const std::vector<CameraMount> one_at_a_time{{0.001, 0, 0, 0, 0, 0},
+                                               {0, 0.002, 0, 0, 0, 0},
+                                               {0, 0, 0, 0.003, 0, 0},
+                                               {0, 0, 0, 0, 0.001, 0},
+                                               {0, 0, 0, 0, 0, 0.001}};
+  double sum_sq = 0;
+  CameraMount all{0, 0, 0, 0, 0, 0};
+  for (const CameraMount& s : one_at_a_time) {
+    CameraMount moved = m;
+    moved.height_m += s.height_m;
+    moved.pitch_rad += s.pitch_rad;
+    moved.yaw_rad += s.yaw_rad;
+    moved.x_m += s.x_m;
+    moved.y_m += s.y_m;
+    const double shift = (pixelToGround(homographyFromMount(moved, cam), pixel) - point).norm();
+    EXPECT_NEAR(floorSigmaM(m, s, d), shift, 0.05 * shift);
+    sum_sq += shift * shift;
+    all.height_m += s.height_m;
+    all.pitch_rad += s.pitch_rad;
+    all.yaw_rad += s.yaw_rad;
+    all.x_m += s.x_m;
+    all.y_m += s.y_m;
+  }
+  EXPECT_NEAR(floorSigmaM(m, all, d), std::sqrt(sum_sq), 0.05 * std::sqrt(sum_sq));
+  EXPECT_EQ(floorSigmaM(m, CameraMount{0, 0, 0, 0, 0, 0}, d), 0.0);
 }
 
 TEST(GroundProjection, ALevelCameraSeesTheFloorAheadBelowTheImageCentre) {

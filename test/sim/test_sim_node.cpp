@@ -663,7 +663,8 @@ TEST(SimNode, BadConfigMakesTheNodeExitNonZero) {
   const std::string world = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world.yaml";
   const std::string required = " _robot_config:=" + robotConfigPath() + " _world_config:=" + world;
   const std::string common =
-      "__ns:=/badcfg _real_time_factor:=0 _camera_enabled:=false _duration_s:=0.2";
+      "__ns:=/badcfg _real_time_factor:=0 _camera_enabled:=false _duration_s:=0.2 "
+      "_failure_linger_s:=0.1";
   const int bad_config = autocal::toInt(autocal::ExitCode::kBadConfig);
 
   // Control: the shipped config runs and ends cleanly, so a failure below is the config's doing.

@@ -70,6 +70,16 @@ struct TagMountResult {
   bool has_sigma = false;
 };
 
+/// Where floorSigmaM is judged: a floor point this far ahead of the camera [m], about where a lane
+/// follower looks.
+constexpr double kFloorSigmaDistanceM = 0.5;
+
+/// How far one standard deviation of the mount (`sigma`, e.g. TagMountResult::sigma) moves the
+/// floor point `distance_m` straight ahead of the camera mounted at `mount` [m]: the yaw and the
+/// offsets aside and along, the pitch and the height along (a ray α below the horizon meets the
+/// floor at h/tan α), added in quadrature. Roll moves a point straight ahead only to second order.
+double floorSigmaM(const CameraMount& mount, const CameraMount& sigma, double distance_m);
+
 /// The mount from the stills and the motions between them. Throws CalibrationError naming what is
 /// missing (no tag, too few straight drives or turns with a tag seen before and after).
 TagMountResult mountFromTags(const std::vector<TagStill>& stills,

@@ -116,15 +116,19 @@ struct WheelRunOptions {
   double max_leave_m = 3.0;
 
   /// The camera's mount from the floor tags (extrinsics::mountFromTags): after the trim converged
-  /// and before leaving, turn on the spot this many times between stills (by +1, −2, +2, −1, ...
-  /// times extrinsics_spin_rad), then drive extrinsics_drives / 2 hops of extrinsics_drive_m
-  /// straight forward and as many back (short enough that a tag stays in view), and fit the mount
-  /// to the tags of every still of the stage (the straight hops give the yaw, the turns the
-  /// camera's place). 0 spins: no extrinsics.
+  /// and before leaving, turn on the spot this many times between stills (by extrinsics_spin_rad
+  /// towards the side the tags are on and back, alternately), then drive extrinsics_drives / 2
+  /// hops of extrinsics_drive_m straight forward and as many back (short enough that a tag stays
+  /// in view), and fit the mount to the tags of every still of the stage (the straight hops give
+  /// the yaw, the turns the camera's place). 0 spins: no extrinsics.
   int extrinsics_spins = 0;
   double extrinsics_spin_rad = 0.3;
   double extrinsics_drive_m = 0.12;
   int extrinsics_drives = 4;  ///< half of them forward, then as many back
+  /// The mount is refused (no extrinsics, the stage goes on) when one standard deviation of it
+  /// (the jackknife over the stills) moves a floor point 0.5 m ahead by more than this [m]
+  /// (extrinsics::floorSigmaM), or when too few stills give no standard deviation.
+  double extrinsics_max_floor_sigma_m = 0.005;
   extrinsics::TagMountOptions extrinsics;
 
   double camera_timeout_s = 5.0;
@@ -279,7 +283,7 @@ class WheelRun {
   bool motion_clock_started_ = true;
   int drive_sign_ = 0;
   double drive_speed_mps_ = 0;
-  int back_drives_ = 0;  ///< drives back started
+  int back_drives_ = 0;            ///< drives back started
   KinematicsParams drive_params_;  // what the last forward drive drove with
   double forward_s_ = 0;           // its commanded length
   double drive_forward_m_ = 0;     // its distance by the encoders
@@ -329,7 +333,7 @@ class WheelRun {
   SinceStill since_still_ = SinceStill::kNone;
   int spins_done_ = 0;
   int extrinsics_drives_done_ = 0;
-  double spun_rad_ = 0;  ///< the turns commanded so far, summed
+  int spin_side_ = 1;  ///< +1: the first turn counter-clockwise (the tags to the left)
   int spin_start_right_ = 0, spin_ticks_ = 1;
   bool extrinsics_done_ = false;
   extrinsics::TagMountResult extrinsics_result_;

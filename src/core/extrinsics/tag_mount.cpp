@@ -297,5 +297,13 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   return out;
 }
 
+double floorSigmaM(const CameraMount& mount, const CameraMount& sigma, double distance_m) {
+  const double d = distance_m, h = mount.height_m;
+  const double aside = std::hypot(d * sigma.yaw_rad, sigma.y_m);
+  const double along = std::hypot(std::hypot(sigma.x_m, sigma.pitch_rad * (d * d + h * h) / h),
+                                  sigma.height_m * d / h);
+  return std::hypot(aside, along);
+}
+
 }  // namespace extrinsics
 }  // namespace autocal

@@ -57,6 +57,8 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_drive_m: must be within [0, 0.5] [m]");
   if (extrinsics_drives < 0 || extrinsics_drives > 20 || extrinsics_drives % 2 != 0)
     throw ConfigError("extrinsics_drives: must be an even number within [0, 20]");
+  if (!(extrinsics_max_floor_sigma_m > 0))
+    throw ConfigError("extrinsics_max_floor_sigma_m: must be > 0 [m]");
   if (extrinsics_spins > 0) extrinsics.validate();
   detector.validate();
   heading.validate();
@@ -310,15 +312,16 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
 }
 
 void WheelRun::startSpin() {
-  // Turns of +1, −2, +2, ... times the step, the last one back to where the turns began.
-  const double step = options_.extrinsics_spin_rad;
-  double turn = step;
-  if (spins_done_ == options_.extrinsics_spins - 1 && spins_done_ > 0) {
-    turn = -spun_rad_;
-  } else if (spins_done_ > 0) {
-    turn = spun_rad_ > 0 ? -2 * step : 2 * step;
+  // Turns of one step towards the side the tags are on and back, and again: the view swings
+  // between the heading the robot stood at and one step towards the tags, so that the tags stay
+  // in view before and after every turn even when the drives left the robot beside the strip (a
+  // turn away from it loses them).
+  if (spins_done_ == 0) {
+    double y_sum = 0;
+    for (const TagSighting& t : sightings_) y_sum += t.y_m;
+    spin_side_ = y_sum < 0 ? -1 : 1;  // tags to the right: turn clockwise first
   }
-  spun_rad_ += turn;
+  const double turn = (spins_done_ % 2 == 0 ? 1 : -1) * spin_side_ * options_.extrinsics_spin_rad;
   ++spins_done_;
   // Both wheels at the same speed, opposite ways (the calibrated kinematics): the robot turns
   // about the middle of its axle. It stops when the right wheel has turned by the turn's share,
@@ -364,6 +367,24 @@ void WheelRun::finishExtrinsics() {
   extrinsics_done_ = true;
   try {
     extrinsics_result_ = extrinsics::mountFromTags(stills_, still_pairs_, options_.extrinsics);
+    const extrinsics::TagMountResult& x = extrinsics_result_;
+    if (!x.has_sigma) {
+      throw CalibrationError(
+          "too few stills with tags to tell how sure the camera's place is (the jackknife needs "
+          "3 that can each be left out)");
+    }
+    const double floor_sigma_m =
+        extrinsics::floorSigmaM(x.mount, x.sigma, extrinsics::kFloorSigmaDistanceM);
+    if (floor_sigma_m > options_.extrinsics_max_floor_sigma_m) {
+      throw CalibrationError(
+          "the camera's place is uncertain: one standard deviation moves a floor point " +
+          formatNumber(extrinsics::kFloorSigmaDistanceM, 2) + " m ahead by " +
+          formatNumber(1e3 * floor_sigma_m, 3) + " mm (yaw " + deg(x.sigma.yaw_rad) + ", y " +
+          formatNumber(1e3 * x.sigma.y_m, 3) + " mm), over extrinsics_max_floor_sigma_m " +
+          formatNumber(1e3 * options_.extrinsics_max_floor_sigma_m, 3) +
+          " mm: the stills disagree (the straight hops' yaws spread " + deg(x.yaw_spread_rad) +
+          "; a hop that did not drive straight, or a tag that moved)");
+    }
   } catch (const Error& e) {
     extrinsics_failure_ = e.what();
   }

@@ -82,7 +82,9 @@ struct WheelRunOptions {
   /// of the fit (a bump, a slipping wheel) [1].
   double max_fit_residual = 0.015;
 
-  /// |heading| below which the robot counts as aligned with the tags [rad].
+  /// |heading| below which the robot counts as aligned with the tags [rad]. After a turning step
+  /// that overshot (the heading changed sign), half that step, at most twice this: the smallest
+  /// step a robot with static friction and late commands makes can exceed the window.
   double align_tolerance_rad = 0.035;
   /// Before a drive, |heading| above this makes the robot re-align first [rad].
   double realign_above_rad = 0.15;
@@ -333,6 +335,7 @@ class WheelRun {
   SinceStill since_still_ = SinceStill::kNone;
   int spins_done_ = 0;
   int extrinsics_drives_done_ = 0;
+  double align_prev_heading_rad_ = 0;  // the alignment's last heading (NaN before its first)
   int spin_side_ = 1;  ///< +1: the first turn counter-clockwise (the tags to the left)
   int spin_start_right_ = 0, spin_ticks_ = 1;
   bool extrinsics_done_ = false;

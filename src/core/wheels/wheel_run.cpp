@@ -264,6 +264,7 @@ void WheelRun::startAlign(WheelRunStage then) {
   after_align_ = then;
   align_steps_ = 0;
   search_turned_rad_ = 0;
+  align_prev_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
   startMeasure(Purpose::kAlign, last_now_s_);
 }
 
@@ -499,7 +500,18 @@ void WheelRun::onMeasured(double now_s) {
         return;
       }
       search_turned_rad_ = 0;
-      if (std::abs(m.heading_rad) < options_.align_tolerance_rad) {
+      // Beyond the paper: when the last step overshot (the heading changed sign), the smallest
+      // step the robot makes may be larger than the tolerance window (static friction, a command
+      // that reaches the motor late); it would turn back and forth. Within half that step (at
+      // most twice the tolerance) the robot is as aligned as its steps allow.
+      double tolerance = options_.align_tolerance_rad;
+      if (std::isfinite(align_prev_heading_rad_) &&
+          (align_prev_heading_rad_ > 0) != (m.heading_rad > 0)) {
+        const double step = std::abs(wrapAngle(m.heading_rad - align_prev_heading_rad_));
+        tolerance = std::clamp(0.5 * step, tolerance, 2 * options_.align_tolerance_rad);
+      }
+      align_prev_heading_rad_ = m.heading_rad;
+      if (std::abs(m.heading_rad) < tolerance) {
         if (after_align_ == WheelRunStage::kLeave) {
           stage_ = WheelRunStage::kLeave;
           startLeave(now_s);

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -335,7 +336,8 @@ class WheelRun {
   SinceStill since_still_ = SinceStill::kNone;
   int spins_done_ = 0;
   int extrinsics_drives_done_ = 0;
-  double align_prev_heading_rad_ = 0;  // the alignment's last heading (NaN before its first)
+  // The alignment's last heading (NaN before its first).
+  double align_prev_heading_rad_ = std::numeric_limits<double>::quiet_NaN();
   int spin_side_ = 1;  ///< +1: the first turn counter-clockwise (the tags to the left)
   int spin_start_right_ = 0, spin_ticks_ = 1;
   bool extrinsics_done_ = false;

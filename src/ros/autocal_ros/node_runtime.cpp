@@ -148,7 +148,12 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
   // process.
   double linger_s = options.failure_linger_s;
   pnh.param("failure_linger_s", linger_s, linger_s);
-  if (!std::isfinite(linger_s) || linger_s < 0) linger_s = options.failure_linger_s;
+  if (!std::isfinite(linger_s) || linger_s < 0) {
+    ROS_WARN_STREAM(options.name << ": ~failure_linger_s " << linger_s
+                                 << ": must be a finite number >= 0 [s]; using "
+                                 << options.failure_linger_s);
+    linger_s = options.failure_linger_s;
+  }
   // Advertised only to stop: a simulator that waits for a controller starts its clock when a
   // wheels_cmd publisher appears, and the node advertises its own once its inputs are connected.
   // In the same process both share one connection, so the stop reaches the same subscribers.

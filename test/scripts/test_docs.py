@@ -35,12 +35,13 @@ PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__)
 # Each node's documentation page (doc/nodes/<node>.md) and the sources whose ParamReader calls are
 # its private parameters: the node's own file and every shared helper it calls with its
 # ParamReader (src/ros/autocal_ros/tag_params.cpp: readTagParams, for the nodes that sight floor
-# tags). Paths are relative to the package. A node without parameters has an empty list.
+# tags; src/ros/autocal_ros/stage_node.cpp: readStageNodeOptions, for the stage nodes). Paths are relative to the package. A node without parameters has an empty list.
 NODES = {
     "camera_calibration_node": ["src/nodes/camera_calibration/camera_calibration_node.cpp"],
     "wheel_calibration_node": ["src/nodes/wheel_calibration/wheel_calibration_node.cpp",
                                "src/ros/autocal_ros/tag_params.cpp"],
-    "odometry_calibration_node": ["src/nodes/odometry_calibration/odometry_calibration_node.cpp"],
+    "odometry_calibration_node": ["src/nodes/odometry_calibration/odometry_calibration_node.cpp",
+                                  "src/ros/autocal_ros/stage_node.cpp"],
     "kinematics_node": ["src/nodes/kinematics/kinematics_node.cpp"],
     "lane_refinement_node": ["src/nodes/lane_refinement/lane_refinement_node.cpp",
                              "src/ros/autocal_ros/tag_params.cpp"],
@@ -256,6 +257,7 @@ FAILURE_SOURCES = [
     "src/core/odometry/uah_run.cpp", "src/core/odometry/umbmark_run.cpp",
     "src/nodes/odometry_calibration/odometry_calibration_node.cpp",
     "src/ros/autocal_ros/node_runtime.cpp", "src/ros/autocal_ros/msg_conversion.cpp",
+    "src/ros/autocal_ros/stage_node.cpp",
 ]
 # A failure's first string literal (after an optional variable and +): the text the page must hold.
 FAILURE = re.compile(r'(?:\bfail\(|failure_ =|throw (?:Calibration|Input)Error\()\s*'

@@ -26,6 +26,7 @@
 #include "autocal/odometry/dead_reckoning.h"
 #include "autocal/odometry/uah.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 
 namespace autocal {
 namespace odometry {
@@ -121,7 +122,7 @@ struct UahTurn {
   double decorrelation_fraction = 0.0;
 };
 
-class UahRun {
+class UahRun : public Stage {
  public:
   /// Throws ConfigError on bad options.
   explicit UahRun(const UahRunOptions& options);
@@ -130,17 +131,20 @@ class UahRun {
   /// jump. Stamps going back are dropped.
   void addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
   /// A range reading (REP 117: ±inf, NaN, out of range are dropouts).
-  void addRange(double stamp_s, double range_m);
+  void addRange(double stamp_s, double range_m) override;
+  /// Stage input: addEncoders above (the resolution is the nominal's).
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
+                   double now_s) override;
   /// Whether the run waits for the true length of the straight run just driven.
   bool needsStraightLength() const { return awaiting_length_; }
   /// The true start-to-end length of that run [m]. Throws InputError when none is awaited or the
   /// length is not a positive number, CalibrationError when it contradicts the pulses.
   void setStraightLength(double length_m);
   /// Advances the run; returns the duties to command now (zero when done or failed).
-  WheelDuties update(double now_s);
+  WheelDuties update(double now_s) override;
 
   UahExperiment experiment() const { return experiment_; }
-  bool done() const { return experiment_ == UahExperiment::kDone; }
+  bool done() const override { return experiment_ == UahExperiment::kDone; }
   bool failed() const { return experiment_ == UahExperiment::kFailed; }
   const std::string& failure() const { return failure_; }
   /// Valid once done().
@@ -160,6 +164,10 @@ class UahRun {
   double elapsedS() const { return watch_.elapsedS(); }
   /// One line: experiment, counts, last figures.
   std::string describe() const;
+  /// Step: the experiment; key: round, straight run and the wait for its length.
+  StageStatus status() const override;
+  /// Writes <calibration_root>/odometry/<veh>.yaml (its quality gate first); valid once done().
+  StageResult finish(const StageOutput& output) override;
 
  private:
   enum class Motion { kNone, kTurn, kDrive, kSettle };

@@ -20,6 +20,7 @@
 #include "autocal/odometry/dead_reckoning.h"
 #include "autocal/odometry/umbmark.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 
 namespace autocal {
 namespace odometry {
@@ -74,6 +75,8 @@ struct UmbmarkRunOptions {
   /// for every error at once (setReturnErrors: from a file).
   bool errors_after_all = false;
   double run_pause_s = 10.0;
+  /// Where the return errors come from, recorded in the file ("~return_error", a file's path).
+  std::string errors_source = "~return_error";
   /// Throws ConfigError naming the first bad key.
   void validate() const;
   /// The options computeUmbmark gets (side, nominal wheelbase, expressions).
@@ -84,7 +87,7 @@ enum class UmbmarkPhase { kWait, kClockwise, kCounterClockwise, kDone, kFailed }
 /// "wait", "umbmark_cw", "umbmark_ccw", "done", "failed".
 const char* name(UmbmarkPhase phase);
 
-class UmbmarkRun {
+class UmbmarkRun : public Stage {
  public:
   /// Throws ConfigError on bad options.
   explicit UmbmarkRun(const UmbmarkRunOptions& options);
@@ -92,6 +95,9 @@ class UmbmarkRun {
   /// Cumulative ticks (wrapping 32-bit counts are unwrapped). Throws CalibrationError on a reset or
   /// jump. Stamps going back are dropped.
   void addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
+  /// Stage input: addEncoders above (the resolution is the nominal's).
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
+                   double now_s) override;
   /// Whether the run just driven waits for its return error.
   bool needsReturnError() const { return awaiting_error_; }
   /// That run's return error ε = actual − computed [m], in its start frame (x along the first
@@ -106,10 +112,10 @@ class UmbmarkRun {
   /// The computed end of each square driven so far, in its start frame [m].
   const std::vector<Pose2D>& computedEnds() const { return computed_ends_; }
   /// Advances the run; returns the duties to command now (zero when done, failed or waiting).
-  WheelDuties update(double now_s);
+  WheelDuties update(double now_s) override;
 
   UmbmarkPhase phase() const { return phase_; }
-  bool done() const { return phase_ == UmbmarkPhase::kDone; }
+  bool done() const override { return phase_ == UmbmarkPhase::kDone; }
   bool failed() const { return phase_ == UmbmarkPhase::kFailed; }
   const std::string& failure() const { return failure_; }
   /// Valid once done().
@@ -129,6 +135,10 @@ class UmbmarkRun {
   double elapsedS() const { return watch_.elapsedS(); }
   /// One line: direction, run, leg, last figures.
   std::string describe() const;
+  /// Step: the direction; key: the square, its leg and the waits for return errors.
+  StageStatus status() const override;
+  /// Writes <calibration_root>/odometry/<veh>.yaml (its quality gate first); valid once done().
+  StageResult finish(const StageOutput& output) override;
 
  private:
   enum class Motion { kNone, kDrive, kTurn, kSettle, kPause };

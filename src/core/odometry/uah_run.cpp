@@ -7,6 +7,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
+#include "autocal/odometry/calibration_file.h"
 
 namespace autocal {
 namespace odometry {
@@ -442,9 +443,9 @@ void UahRun::finish() {
 WheelDuties UahRun::update(double now_s) {
   if (done() || failed()) return {};
   const double dt = watch_.tick(now_s);
-  const std::string late = watch_.failure(now_s, encoders_, motion_ != Motion::kNone,
-                                          options_.max_duration_s, options_.encoder_timeout_s,
-                                          "UAH run", name(experiment_));
+  const std::string late =
+      watch_.failure(now_s, encoders_, motion_ != Motion::kNone, options_.max_duration_s,
+                     options_.encoder_timeout_s, "UAH run", name(experiment_));
   if (!late.empty()) fail(late);
   if (!encoders_.valid()) return {};
   if (experiment_ == UahExperiment::kWait) startTurn(UahExperiment::kPivotLeftStopped, now_s);
@@ -544,7 +545,8 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
     stop(now_s);
     return duties_;
   }
-  const double ramp = std::clamp(motion_clock_.elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
+  const double ramp =
+      std::clamp(motion_clock_.elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
   follow(1,
          options_.spin_rate_pulses_per_s +
              ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s),
@@ -588,6 +590,62 @@ std::string UahRun::describe() const {
   if (spin_ppr_ > 0) s += ", spin " + formatNumber(spin_ppr_, 6) + " pulses/round";
   if (failed()) s += ": " + failure_;
   return s;
+}
+
+}  // namespace odometry
+}  // namespace autocal
+
+namespace autocal {
+namespace odometry {
+
+void UahRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                         int /*ticks_per_revolution*/, double /*now_s*/) {
+  addEncoders(stamp_s, static_cast<std::int32_t>(left_ticks),
+              static_cast<std::int32_t>(right_ticks));
+}
+
+StageStatus UahRun::status() const {
+  StageStatus s;
+  s.step = name(experiment_);
+  // A helper or a person acts on each new round, straight run and wait for a length.
+  s.key = std::to_string(round()) + "/" + std::to_string(straightRun()) + "/" +
+          std::to_string(needsStraightLength());
+  s.progress = progress();
+  s.text = describe();
+  s.figures = {{"round", static_cast<double>(round())},
+               {"pulses_per_round", pulsesPerRound()},
+               {"straight_run", static_cast<double>(straightRun())},
+               {"awaiting_length", needsStraightLength() ? 1.0 : 0.0},
+               {"run_start_s", straightRunStartS()},
+               {"elapsed_s", elapsedS()}};
+  return s;
+}
+
+StageResult UahRun::finish(const StageOutput& output) {
+  const OdometryCalibration c = result_.toOdometryCalibration(output.veh);
+  StageResult r;
+  r.file = odometryCalibrationPath(output.calibration_root, output.veh);
+  writeOdometryCalibration(r.file, c);  // the quality gate first; throws on failure
+  double spin_ppr = 0;
+  for (const auto& t : turns_)
+    if (t.experiment == UahExperiment::kSpin) spin_ppr = t.detection.pulses_per_round;
+  r.figures = {
+      {"Ed", c.Ed},
+      {"Eb", c.Eb},
+      {"wheelbase_m", c.wheelbase_m},
+      {"left_m_per_pulse", c.left_m_per_pulse},
+      {"right_m_per_pulse", c.right_m_per_pulse},
+      {"right_pulses_per_round_left_stopped", result_.ed.right_pulses_per_round},
+      {"left_pulses_per_round_right_stopped", result_.ed.left_pulses_per_round},
+      {"spin_pulses_per_round", spin_ppr},
+      {"straight_runs_accepted", static_cast<double>(result_.straight.accepted_runs.size())},
+      {"elapsed_s", elapsedS()}};
+  r.log = "Ed " + formatNumber(c.Ed, 5) + ", wheelbase " + formatNumber(c.wheelbase_m, 5) +
+          " m (Eb " + formatNumber(c.Eb, 4) + "), c_L " +
+          formatNumber(1000 * c.left_m_per_pulse, 5) + " mm, c_R " +
+          formatNumber(1000 * c.right_m_per_pulse, 5) + " mm per pulse, " +
+          formatNumber(elapsedS(), 4) + " s";
+  return r;
 }
 
 }  // namespace odometry

@@ -251,9 +251,9 @@ void UmbmarkRun::finish() {
 WheelDuties UmbmarkRun::update(double now_s) {
   if (done() || failed()) return {};
   const double dt = watch_.tick(now_s);
-  const std::string late = watch_.failure(now_s, encoders_, motion_ != Motion::kNone,
-                                          options_.max_duration_s, options_.encoder_timeout_s,
-                                          "UMBmark run", name(phase_));
+  const std::string late =
+      watch_.failure(now_s, encoders_, motion_ != Motion::kNone, options_.max_duration_s,
+                     options_.encoder_timeout_s, "UMBmark run", name(phase_));
   if (!late.empty()) fail(late);
   if (!encoders_.valid()) return {};
   if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
@@ -394,6 +394,63 @@ std::string UmbmarkRun::describe() const {
   }
   if (failed()) s += ": " + failure_;
   return s;
+}
+
+}  // namespace odometry
+}  // namespace autocal
+
+namespace autocal {
+namespace odometry {
+
+void UmbmarkRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                             int /*ticks_per_revolution*/, double /*now_s*/) {
+  addEncoders(stamp_s, static_cast<std::int32_t>(left_ticks),
+              static_cast<std::int32_t>(right_ticks));
+}
+
+StageStatus UmbmarkRun::status() const {
+  StageStatus s;
+  s.step = name(phase_);
+  const int squares = static_cast<int>(cw_.size() + ccw_.size() + computed_ends_.size());
+  // A helper or a person acts on each new square, leg and wait for return errors.
+  s.key = std::to_string(runInDirection()) + "/" + std::to_string(leg()) + "/" +
+          std::to_string(needsReturnError()) + "/" + std::to_string(needsAllReturnErrors()) + "/" +
+          std::to_string(squares);
+  s.progress = progress();
+  s.text = describe();
+  s.figures = {{"run", static_cast<double>(runInDirection())},
+               {"leg", static_cast<double>(leg())},
+               {"squares_driven", static_cast<double>(computed_ends_.size())},
+               {"awaiting_error", needsReturnError() ? 1.0 : 0.0},
+               {"awaiting_errors_file", needsAllReturnErrors() ? 1.0 : 0.0},
+               {"run_start_s", runStartS()},
+               {"computed_x_m", computedPose().x_m},
+               {"computed_y_m", computedPose().y_m},
+               {"elapsed_s", elapsedS()}};
+  return s;
+}
+
+StageResult UmbmarkRun::finish(const StageOutput& output) {
+  const OdometryCalibration c =
+      toOdometryCalibration(result_, options_.umbmark(), output.veh, options_.errors_source);
+  StageResult r;
+  r.file = odometryCalibrationPath(output.calibration_root, output.veh);
+  writeOdometryCalibration(r.file, c);  // the quality gate first; throws on failure
+  r.figures = {{"Ed", c.Ed},
+               {"Eb", c.Eb},
+               {"wheelbase_m", c.wheelbase_m},
+               {"left_pulse_factor", c.left_pulse_factor},
+               {"right_pulse_factor", c.right_pulse_factor},
+               {"E_max_syst_m", result_.E_max_syst_m},
+               {"runs_cw", static_cast<double>(result_.runs_cw)},
+               {"runs_ccw", static_cast<double>(result_.runs_ccw)},
+               {"elapsed_s", elapsedS()}};
+  r.log = "UMBmark (" + c.expressions + " expressions) Ed " + formatNumber(c.Ed, 5) + ", Eb " +
+          formatNumber(c.Eb, 5) + " (wheelbase " + formatNumber(c.wheelbase_m, 5) + " m), c_L x" +
+          formatNumber(c.left_pulse_factor, 5) + ", c_R x" + formatNumber(c.right_pulse_factor, 5) +
+          ", E_max,syst " + formatNumber(1000 * result_.E_max_syst_m, 3) + " mm, " +
+          formatNumber(elapsedS(), 4) + " s";
+  return r;
 }
 
 }  // namespace odometry

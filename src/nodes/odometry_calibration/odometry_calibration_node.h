@@ -29,40 +29,26 @@
 
 #include <ros/ros.h>
 
-#include <exception>
-#include <memory>
 #include <string>
 
 #include "autocal/odometry/uah_run.h"
 #include "autocal/odometry/umbmark_run.h"
-#include "autocal/status_throttle.h"
-#include "autocal_ros/node_runtime.h"
-#include "autocal_ros/sensor_inputs.h"
+#include "autocal_ros/stage_node.h"
 
 namespace autocal {
 namespace odometry {
 
 struct OdometryCalibrationNodeOptions {
-  std::string veh;  ///< default: the last component of the node's namespace
-  std::string calibration_root = "/data/config/calibrations";
-  /// Resuming a run after a failure: keep this stage's result when the run's last report says
-  /// it succeeded and its file still exists (ros_layer::resumeStage).
-  bool resume = false;
+  /// veh, calibration_root, resume, control_rate_hz (>= 20), connect_wait_s, status_rate_hz,
+  /// after_stage, after_stage_wait_s.
+  ros_layer::StageNodeOptions stage;
   /// The nominal robot: wheel radius [m] (both wheels) and wheelbase [m]; the encoder resolution
   /// comes from the encoder messages unless ticks_per_revolution > 0.
   double wheel_radius_m = 0.0318;
   double wheelbase_m = 0.1;
   int ticks_per_revolution = 0;
-  double control_rate_hz = 50;
-  double connect_wait_s = 5.0;
-  double status_rate_hz = 2.0;
   /// "uah" (paper 002 §2) or "umbmark" (Borenstein & Feng).
   std::string method = "uah";
-  /// In a calibration run: start only after this stage's DONE on calibration/status (e.g.
-  /// "wheels"; empty: at once), and fail on its FAILED or after after_stage_wait_s [wall s, 0:
-  /// no limit].
-  std::string after_stage;
-  double after_stage_wait_s = 0;
   UahRunOptions run;
   /// UMBmark: nominal is set at the start like run.nominal's.
   UmbmarkRunOptions umbmark;
@@ -79,31 +65,20 @@ class OdometryCalibrationNode {
   void run();
 
  private:
-  void start(int ticks_per_revolution);
-  void publishStatus(bool force);
-  void finish();
-  void publishUmbmarkStatus(bool force);
-  void finishUmbmark();
+  std::unique_ptr<Stage> build(int ticks_per_revolution);
+  void onReturnError(double x_m, double y_m);
+  void onStraightLength(double length_m);
   /// Errors-file mode: the file, once it holds every square's error.
   void pollErrorsFile();
   bool umbmark() const { return options_.method == "umbmark"; }
-  bool runDone() const {
-    return umbmark() ? umbmark_run_ && umbmark_run_->done() : run_ && run_->done();
-  }
 
-  ros::NodeHandle nh_, pnh_;
+  ros::NodeHandle pnh_;
   OdometryCalibrationNodeOptions options_;
-  std::unique_ptr<UahRun> run_;
-  std::unique_ptr<UmbmarkRun> umbmark_run_;
-  ros::Subscriber error_sub_;
+  ros_layer::StageNode node_;
+  UahRun* uah_ = nullptr;          ///< the stage, when the method is uah
+  UmbmarkRun* umbmark_ = nullptr;  ///< the stage, when the method is umbmark
+  ros::Subscriber error_sub_, length_sub_;
   ros::WallTime last_file_poll_;
-  ros_layer::StatusPublisher status_;
-  ros_layer::WheelsCommander wheels_;
-  std::unique_ptr<ros_layer::EncoderInput> encoders_;
-  ros::Subscriber range_sub_, length_sub_;
-  std::exception_ptr error_;
-  bool range_limits_set_ = false;
-  StatusThrottle status_throttle_;
 };
 
 }  // namespace odometry

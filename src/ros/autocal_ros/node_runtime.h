@@ -16,6 +16,7 @@
 
 #include "autocal/exit_codes.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 #include "autocal_ros/msgs.h"
 
 namespace autocal {
@@ -27,7 +28,7 @@ class StatusPublisher {
   StatusPublisher() = default;
   StatusPublisher(ros::NodeHandle nh, const std::string& topic);
 
-  using Figures = std::vector<std::pair<std::string, double>>;
+  using Figures = autocal::Figures;
   /// `progress` 0..1, negative when unknown. A stage's progress never goes back: a lower value
   /// than one published before (a stage re-aligning, a phase whose own measure starts lower) is
   /// published as the higher one.

@@ -5,6 +5,7 @@ target_sources(autocal_wheels PRIVATE
   src/core/wheels/trim_estimator.cpp
   src/core/wheels/motor_fit.cpp
   src/core/wheels/wheel_run.cpp
+  src/core/wheels/wheel_run_output.cpp
   src/core/wheels/wheel_replay.cpp)
 
 if(CATKIN_ENABLE_TESTING)

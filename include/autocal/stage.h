@@ -58,9 +58,13 @@ class Stage {
   virtual void addRange(double /*stamp_s*/, double /*range_m*/) {}
   /// Whether the frame stamped `stamp_s` is to be decoded and given to addFrame (a stage takes
   /// only the frames it needs; the rest cost nothing).
-  virtual bool wantsFrame(double /*stamp_s*/) { return false; }
-  virtual void addFrame(double /*stamp_s*/, const cv::Mat& /*gray*/,
-                        const std::string& /*source*/) {}
+  virtual bool wantsFrame(double /*stamp_s*/) const { return false; }
+  /// A wanted frame (8-bit grey or colour, one size: the caller drops others); false when it was
+  /// not wanted. `source` names it in the stage's records.
+  virtual bool addFrame(double /*stamp_s*/, const cv::Mat& /*image*/,
+                        const std::string& /*source*/) {
+    return false;
+  }
   /// Frames or encoder readings arrived at `now_s` (before their handling took its time).
   virtual void noteFrameArrived(double /*now_s*/) {}
   virtual void noteEncodersArrived(double /*now_s*/) {}

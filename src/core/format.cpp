@@ -1,6 +1,7 @@
 #include "autocal/io/format.h"
 
 #include <cmath>
+#include <ctime>
 #include <sstream>
 
 #include "autocal/errors.h"
@@ -46,6 +47,15 @@ int parseIntArg(const std::string& flag, const std::string& text) {
     throw UsageError(flag + ": expected an integer, got '" + text + "'");
   }
   return static_cast<int>(v);
+}
+
+std::string utcNowIso8601() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
 }
 
 }  // namespace autocal

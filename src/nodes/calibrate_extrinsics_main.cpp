@@ -32,7 +32,7 @@ int run(const std::vector<std::string>& argv) {
   writeFileAtomically(
       args.out, extrinsicsYaml(r.homography, r.mount, &r.mount_sigma,
                                {{"board_rms_m", r.board_rms_m}, {"board_max_m", r.board_max_m}},
-                               camera.rectified, args.image, odometry::utcNowIso8601()));
+                               camera.rectified, args.image, utcNowIso8601()));
   const CameraMount& m = r.mount;
   const CameraMount& s = r.mount_sigma;
   std::printf(

@@ -37,9 +37,11 @@ PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__)
 # ParamReader (src/ros/autocal_ros/tag_params.cpp: readTagParams, for the nodes that sight floor
 # tags; src/ros/autocal_ros/stage_node.cpp: readStageNodeOptions, for the stage nodes). Paths are relative to the package. A node without parameters has an empty list.
 NODES = {
-    "camera_calibration_node": ["src/nodes/camera_calibration/camera_calibration_node.cpp"],
+    "camera_calibration_node": ["src/nodes/camera_calibration/camera_calibration_node.cpp",
+                                "src/ros/autocal_ros/stage_node.cpp"],
     "wheel_calibration_node": ["src/nodes/wheel_calibration/wheel_calibration_node.cpp",
-                               "src/ros/autocal_ros/tag_params.cpp"],
+                               "src/ros/autocal_ros/tag_params.cpp",
+                               "src/ros/autocal_ros/stage_node.cpp"],
     "odometry_calibration_node": ["src/nodes/odometry_calibration/odometry_calibration_node.cpp",
                                   "src/ros/autocal_ros/stage_node.cpp"],
     "kinematics_node": ["src/nodes/kinematics/kinematics_node.cpp"],
@@ -252,7 +254,8 @@ FAILURE_SOURCES = [
     "src/core/camera/sweep_run.cpp", "src/core/camera/sweep_controller.cpp",
     "src/core/camera/min_duty_probe.cpp", "src/core/camera/calibration.cpp",
     "src/nodes/camera_calibration/camera_calibration_node.cpp",
-    "src/core/wheels/wheel_run.cpp", "src/core/wheels/trim_estimator.cpp",
+    "src/core/wheels/wheel_run.cpp", "src/core/wheels/wheel_run_output.cpp",
+    "src/core/wheels/trim_estimator.cpp",
     "src/nodes/wheel_calibration/wheel_calibration_node.cpp",
     "src/core/odometry/uah_run.cpp", "src/core/odometry/umbmark_run.cpp",
     "src/nodes/odometry_calibration/odometry_calibration_node.cpp",

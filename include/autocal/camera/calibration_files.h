@@ -11,9 +11,16 @@
 
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/stage.h"
 
 namespace autocal {
 namespace camera {
+
+/// `<calibration_root>/camera_intrinsic/<veh>.yaml`, the robot's intrinsics file.
+std::string cameraIntrinsicsPath(const std::string& calibration_root, const std::string& veh);
+
+/// A calibration's DONE figures: fx, fy, cx, cy, k1, k2, rms_px, views.
+Figures calibrationFigures(const CalibrationResult& result);
 
 /// `<dir>/<stem>_views` for `<dir>/<stem>.yaml`.
 std::string viewsDirFor(const std::string& yaml_path);

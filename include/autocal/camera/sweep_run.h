@@ -12,6 +12,7 @@
 
 #include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -24,6 +25,7 @@
 #include "autocal/camera/view_selection.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 
 namespace autocal {
 namespace camera {
@@ -92,7 +94,7 @@ struct SweepFrameReport {
   SweepDecision decision;
 };
 
-class SweepRun {
+class SweepRun : public Stage {
  public:
   /// Throws ConfigError for invalid options or config.
   SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig& camera);
@@ -101,26 +103,27 @@ class SweepRun {
   /// the other), received at `now_s` (for the encoder timeout). `stamp_s` orders the readings; a
   /// reading older than the last is ignored.
   void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
-                   double now_s);
+                   double now_s) override;
   /// A frame is wanted only while the robot stands settled after a step (and once at the start):
   /// check before decoding one.
-  bool wantsFrame(double stamp_s) const;
+  bool wantsFrame(double stamp_s) const override;
   /// Noted for the camera timeout even when not wanted (no decoding needed).
-  void noteFrameArrived(double now_s);
+  void noteFrameArrived(double now_s) override;
   /// Noted for the encoder timeout (addEncoders notes it too). A node that handles a batch of
   /// messages calls both after the batch: a frame processed last in it may take long, and a
   /// reading handled before it would look older than it is.
-  void noteEncodersArrived(double now_s);
+  void noteEncodersArrived(double now_s) override;
   /// Processes a wanted frame (8-bit grey or colour, the size of the first frame: the caller
   /// drops others). Returns false when it was not wanted.
-  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source);
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
   /// Advances the state at time `now_s` and returns the duties to command now. Throws
   /// CalibrationError when the stage fails (the reason names what went wrong).
-  WheelDuties update(double now_s);
+  WheelDuties update(double now_s) override;
 
   SweepRunStage stage() const { return stage_; }
   /// The sweep is over with enough views: calibrate() may be called.
   bool swept() const { return stage_ == SweepRunStage::kSwept; }
+  bool done() const override { return swept(); }
   /// Calibrates the kept views and applies the quality gate; throws CalibrationError when the views
   /// cannot determine the model or the result fails the gate.
   CalibrationResult calibrate() const;
@@ -147,6 +150,20 @@ class SweepRun {
   double progress() const;
   /// One line for the status, e.g. "probe: left forward at duty 0.09" or the controller's line.
   std::string describe() const;
+  /// Step: the stage (probe, collect, ...).
+  StageStatus status() const override;
+  std::string finishStep() const override { return "calibrate"; }
+
+  /// The text of a camera_info YAML file for `intrinsics` named `camera_name` (the node gives
+  /// camera_calibration_parsers' writer: the file must read back in ROS as Duckietown's does).
+  using CameraInfoFormat =
+      std::function<std::string(const CameraIntrinsics& intrinsics, const std::string& name)>;
+  void setCameraInfoFormat(CameraInfoFormat format) { camera_info_format_ = std::move(format); }
+  /// Calibrates (calibrate()) and writes <calibration_root>/camera_intrinsic/<veh>.yaml with its
+  /// audit folder; needs setCameraInfoFormat.
+  StageResult finish(const StageOutput& output) override;
+  /// The result finish() wrote (valid after it).
+  const CalibrationResult& calibration() const { return calibration_; }
 
  private:
   enum class Step { kPulse, kSettle };
@@ -157,12 +174,14 @@ class SweepRun {
 
   SweepRunOptions options_;
   CameraCalibrationConfig camera_;
+  CameraInfoFormat camera_info_format_;
+  CalibrationResult calibration_;
   SweepController controller_;
   /// Progress through the sweep's legs: the current leg (SweepController::pass), the heading it
   /// began at and the widest leg so far [rad]; the sweep usually ends in its third leg.
   static constexpr double kExpectedLegs = 3;
   static constexpr double kFirstLegArcRad = M_PI;  ///< before a leg ended: half a turn
-  static constexpr double kProbeShare = 0.2;          ///< of the stage's progress
+  static constexpr double kProbeShare = 0.2;       ///< of the stage's progress
   int leg_ = 0;
   double leg_start_rad_ = 0, leg_arc_rad_ = 0;
   MinDutyProbe probe_;

@@ -10,6 +10,9 @@ namespace autocal {
 /// YAML reads it back ("0.1026645779", "1e-09", "nan", "inf").
 std::string formatNumber(double value, int significant_digits = 10);
 
+/// The current UTC time as ISO 8601, e.g. "2026-01-31T12:00:00Z" (a file's calibration date).
+std::string utcNowIso8601();
+
 /// "a, b,c" → {"a", "b", "c"}: the items of a comma-separated list, blanks trimmed, empty ones
 /// dropped (list parameters given as one string, e.g. ~stages, ~vehicles).
 std::vector<std::string> splitCommaList(const std::string& text);

@@ -52,8 +52,5 @@ std::string odometryCalibrationPath(const std::string& calibrations_root,
 /// Used by every command that calibrates odometry.
 void writeOdometryCalibration(const std::string& path, const OdometryCalibration& calibration);
 
-/// The current UTC time as "YYYY-MM-DDTHH:MM:SSZ".
-std::string utcNowIso8601();
-
 }  // namespace odometry
 }  // namespace autocal

@@ -28,6 +28,7 @@
 #include "autocal/markers/tag_detector.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal/wheels/motor_fit.h"
 #include "autocal/wheels/tag_heading.h"
@@ -49,6 +50,9 @@ struct WheelRunOptions {
   /// limit are kept; trim is replaced; deadband_left/right are the first guess of the offsets
   /// (e.g. the camera stage's minimum moving duties) and are replaced when compensating.
   KinematicsParams kinematics;
+  /// The camera_info file the intrinsics came from: the extrinsics file's rectified camera (its
+  /// projection matrix) and provenance. Needed by finish() when extrinsics_spins > 0.
+  std::string intrinsics_file;
 
   /// Search tags only in the image rows that can show floor within heading.max_distance_m plus a
   /// tag (detector.min_row_px, unless set): farther tags are not used, and detection is faster.
@@ -181,25 +185,28 @@ struct DeadbandGuesses {
 };
 DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, double resolution);
 
-class WheelRun {
+class WheelRun : public Stage {
  public:
   /// Throws ConfigError on bad options or intrinsics.
   WheelRun(const WheelRunOptions& options, const CameraIntrinsics& intrinsics);
   ~WheelRun();
 
   void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
-                   double now_s);
-  void noteEncodersArrived(double now_s);
-  void noteFrameArrived(double now_s);
+                   double now_s) override;
+  void noteEncodersArrived(double now_s) override;
+  void noteFrameArrived(double now_s) override;
   /// Whether a frame stamped `stamp_s` is wanted (others are dropped unprocessed).
-  bool wantsFrame(double stamp_s) const;
+  bool wantsFrame(double stamp_s) const override;
   /// Detects the tags of a wanted frame. Throws InputError on a bad image.
   void addFrame(double stamp_s, const cv::Mat& image);
+  /// Stage input: addFrame above; the last frame of the extrinsics' stills is kept for the ground
+  /// view drawn beside the extrinsics file.
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
   /// Advances the run; returns the duties to command now (zero when done or failed).
-  WheelDuties update(double now_s);
+  WheelDuties update(double now_s) override;
 
   WheelRunStage stage() const { return stage_; }
-  bool done() const { return stage_ == WheelRunStage::kDone; }
+  bool done() const override { return stage_ == WheelRunStage::kDone; }
   bool failed() const { return stage_ == WheelRunStage::kFailed; }
   const std::string& failure() const { return failure_; }
 
@@ -223,6 +230,12 @@ class WheelRun {
   double progress() const;
   /// One line: stage, step, k, last Δθ, heading.
   std::string describe() const;
+  /// Step: the stage; key: the drives so far (each is logged).
+  StageStatus status() const override;
+  /// Writes <calibration_root>/kinematics/<veh>.yaml (validated first) and, when the mount was
+  /// measured, camera_extrinsic/<veh>.yaml with its ground view; the DONE says why extrinsics are
+  /// missing. Valid once done().
+  StageResult finish(const StageOutput& output) override;
 
  private:
   enum class Motion { kNone, kPulse, kSpin, kDrive, kSettle, kMeasure };
@@ -304,6 +317,8 @@ class WheelRun {
   double heading_before_drive_ = 0;
   double drive_left_angle_rad_ = 0;
   std::vector<markers::TagDetection> last_detections_;
+  /// The last frame of the extrinsics' stills (the ground view beside the extrinsics file).
+  cv::Mat ground_frame_;
 
   // aligning
   int align_steps_ = 0;

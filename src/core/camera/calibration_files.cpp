@@ -14,6 +14,22 @@
 namespace autocal {
 namespace camera {
 
+std::string cameraIntrinsicsPath(const std::string& calibration_root, const std::string& veh) {
+  return (std::filesystem::path(calibration_root) / "camera_intrinsic" / (veh + ".yaml")).string();
+}
+
+Figures calibrationFigures(const CalibrationResult& result) {
+  const CameraIntrinsics& in = result.intrinsics;
+  return {{"fx", in.fx},
+          {"fy", in.fy},
+          {"cx", in.cx},
+          {"cy", in.cy},
+          {"k1", in.distortion_coefficients[0]},
+          {"k2", in.distortion_coefficients[1]},
+          {"rms_px", result.rms_px},
+          {"views", static_cast<double>(result.used_views.size())}};
+}
+
 namespace fs = std::filesystem;
 
 namespace {

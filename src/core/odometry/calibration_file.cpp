@@ -8,6 +8,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
+#include "autocal/io/format.h"
 
 namespace autocal {
 namespace odometry {
@@ -97,15 +98,6 @@ std::string odometryCalibrationPath(const std::string& calibrations_root,
 void writeOdometryCalibration(const std::string& path, const OdometryCalibration& calibration) {
   checkOdometryCalibration(calibration);  // before anything touches the file
   writeFileAtomically(path, odometryCalibrationYaml(calibration, utcNowIso8601()));
-}
-
-std::string utcNowIso8601() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
 }
 
 }  // namespace odometry

@@ -22,20 +22,11 @@ namespace camera {
 namespace fs = std::filesystem;
 
 void CameraCalibrationNodeOptions::validate() const {
-  ros_layer::checkParam(!veh.empty(), "veh", "must not be empty (the robot's name names the file)");
-  ros_layer::checkParam(veh.find('/') == std::string::npos, "veh", "must not contain '/'");
-  ros_layer::checkCalibrationRoot(calibration_root);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
-                        "must be >= 10 Hz (pulses are 0.1 s)");
   ros_layer::checkParam(std::isfinite(camera_info_wait_s) && camera_info_wait_s >= 0,
                         "camera_info_wait_s", "must be >= 0");
-  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
-                        "must be >= 0");
-  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
-                        "must be > 0");
   ros_layer::checkParam(board_square_m >= 0, "board_square_m", "must be > 0 (0: the config's)");
   ros_layer::checkLength("board_square_m", board_square_m, ranges::kBoardSquare);
   ros_layer::checkLength("nominal_wheel_radius_m", run.nominal_wheel_radius_m,
@@ -57,21 +48,15 @@ constexpr uint32_t kReplayQueue = 2000;
 CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "camera_calibration_node");
   CameraCalibrationNodeOptions o;
-  o.veh = ros_layer::defaultVeh(nh);
-  p.get("veh", o.veh);
-  p.get("calibration_root", o.calibration_root);
-  p.get("resume", o.resume);
+  o.stage = ros_layer::readStageNodeOptions(p, nh, 10);  // pulses are 0.1 s
   o.camera_config = ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
   p.get("camera_config", o.camera_config);
   p.get("board_inner_corners", o.board_inner_corners);
   p.get("board_square_m", o.board_square_m);
   p.get("image_transport", o.image_transport);
-  p.get("control_rate_hz", o.control_rate_hz);
   p.get("camera_info_wait_s", o.camera_info_wait_s);
-  p.get("connect_wait_s", o.connect_wait_s);
   p.get("use_camera_info_guess", o.use_camera_info_guess);
   p.get("set_camera_info", o.set_camera_info);
-  p.get("status_rate_hz", o.status_rate_hz);
   p.get("passive", o.passive);
   p.get("recorded_status_topic", o.recorded_status_topic);
   p.get("recording_end_wait_s", o.recording_end_wait_s);
@@ -122,20 +107,27 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   p.get("settle_s", s.settle_s);
   p.get("max_settle_s", s.max_settle_s);
   o.validate();
+  // The output folder, before the robot moves (the file is written after the whole sweep).
+  checkWritableFolder((fs::path(o.stage.calibration_root) / "camera_intrinsic").string());
   return o;
 }
 
-/// The DONE figures of a calibration, live or replayed.
-ros_layer::StatusPublisher::Figures resultFigures(const CalibrationResult& result) {
-  const CameraIntrinsics& in = result.intrinsics;
-  return {{"fx", in.fx},
-          {"fy", in.fy},
-          {"cx", in.cx},
-          {"cy", in.cy},
-          {"k1", in.distortion_coefficients[0]},
-          {"k2", in.distortion_coefficients[1]},
-          {"rms_px", result.rms_px},
-          {"views", static_cast<double>(result.used_views.size())}};
+CameraCalibrationConfig loadCamera(const CameraCalibrationNodeOptions& o) {
+  CameraCalibrationConfig camera = loadCameraCalibrationConfig(o.camera_config);
+  if (!o.board_inner_corners.empty())
+    camera.board.inner_corners = parseBoardSize(o.board_inner_corners);
+  if (o.board_square_m > 0) camera.board.square_size_m = o.board_square_m;
+  // The robot's boards are small in its image: the half-resolution precheck misses a third of
+  // them (BENCHMARKS.md), and a frame is only grabbed once per step.
+  camera.detector.half_resolution_precheck = false;
+  camera.validate();
+  return camera;
+}
+
+ros_layer::StageInputs stageInputs(const CameraCalibrationNodeOptions& o) {
+  ros_layer::StageInputs in;
+  in.image_transport = o.image_transport;
+  return in;
 }
 
 }  // namespace
@@ -144,96 +136,16 @@ CameraCalibrationNode::CameraCalibrationNode(ros::NodeHandle nh, ros::NodeHandle
     : nh_(nh),
       pnh_(pnh),
       options_(readOptions(nh, pnh)),
-      status_throttle_(options_.status_rate_hz) {
-  camera_ = loadCameraCalibrationConfig(options_.camera_config);
-  if (!options_.board_inner_corners.empty())
-    camera_.board.inner_corners = parseBoardSize(options_.board_inner_corners);
-  if (options_.board_square_m > 0) camera_.board.square_size_m = options_.board_square_m;
-  // The robot's boards are small in its image: the half-resolution precheck misses a third of
-  // them (BENCHMARKS.md), and a frame is only grabbed once per step.
-  camera_.detector.half_resolution_precheck = false;
-  camera_.validate();
-  // The output folder, before the robot moves (the file is written after the whole sweep).
-  checkWritableFolder((fs::path(options_.calibration_root) / "camera_intrinsic").string());
-
-  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+      camera_(loadCamera(options_)),
+      node_(nh, "camera_calibration_node", "camera", options_.stage, stageInputs(options_),
+            "waiting for the camera and the encoders") {
   debug_pub_ = pnh_.advertise<sensor_msgs::CompressedImage>("debug/image/compressed", 1);
-  status_.running("camera/wait", 0, "waiting for the camera and the encoders");
-  info_sub_ =
-      nh_.subscribe("camera_node/camera_info", 1, &CameraCalibrationNode::onCameraInfo, this);
-  frames_ = std::make_unique<ros_layer::FrameInput>(
-      nh_, options_.image_transport, "camera_calibration_node",
-      [this](const ros::Time& stamp) { return frameWanted(stamp); },
-      [this](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
-        if (replay_) {
-          replay_->addFrame(stamp.toSec(), image, source);
-          return;
-        }
-        run_->addFrame(stamp.toSec(), image, source);
-        publishDebug(image);
-      },
-      &error_, options_.passive ? kReplayQueue : 2);
-  encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_,
-      [this](const ros::Time& stamp, int left, int right, int resolution) {
-        arrivals_.encoders = true;
-        if (recording_) recording_->noteMessage();
-        if (replay_) replay_->addEncoders(stamp.toSec(), left, right);
-        if (run_)
-          run_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
-      },
-      &error_, ros_layer::EncoderInput::WheelHandler(), options_.passive ? kReplayQueue : 50);
-  if (options_.passive) {
-    // The recording's commands and statuses; the stage is built when camera_info is known, and
-    // nothing of the recording comes before rosbag play starts (replay.launch delays it).
-    recording_ = std::make_unique<ros_layer::RecordingFollower>(
-        nh_, "camera", options_.recorded_status_topic,
-        [this](const ros::Time& stamp, const WheelDuties& d) {
-          if (replay_) replay_->addCommand(stamp.toSec(), d);
-        },
-        [this](const ros::Time& stamp, const std::string& phase) {
-          if (replay_) replay_->setCollecting(stamp.toSec(), phase == "camera/collect");
-        },
-        &error_);
-  }
-}
-
-void CameraCalibrationNode::connect() {
-  wheels_ = ros_layer::connectStage(
-      nh_,
-      [this] {
-        return frames_->publishers() > 0 && encoders_->connected() &&
-               info_sub_.getNumPublishers() > 0;
-      },
-      options_.connect_wait_s);
-}
-
-template <typename F>
-void CameraCalibrationNode::guarded(F&& f) {
-  if (error_) return;
-  try {
-    f();
-  } catch (...) {
-    error_ = std::current_exception();
-  }
-}
-
-void CameraCalibrationNode::onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg) {
-  guarded([&] {
-    if (have_info_) return;
-    info_ = *msg;
-    have_info_ = true;
-  });
-}
-
-bool CameraCalibrationNode::frameWanted(const ros::Time& stamp) {
-  if (recording_) recording_->noteMessage();
-  if (replay_) return replay_->wantsFrame(stamp.toSec());
-  if (!run_) return false;
-  arrivals_.frames = true;
-  run_->noteFrameArrived(ros::Time::now().toSec());
-  // Decode only the frame the stage wants (one per step): the others cost nothing.
-  return run_->wantsFrame(stamp.toSec());
+  info_sub_ = nh_.subscribe<sensor_msgs::CameraInfo>(
+      "camera_node/camera_info", 1, [this](const sensor_msgs::CameraInfo::ConstPtr& msg) {
+        if (have_info_) return;
+        info_ = *msg;
+        have_info_ = true;
+      });
 }
 
 void CameraCalibrationNode::publishDebug(const cv::Mat& frame) {
@@ -250,22 +162,22 @@ void CameraCalibrationNode::publishDebug(const cv::Mat& frame) {
 
 void CameraCalibrationNode::waitForCameraInfo() {
   const ros::Time start = ros::Time::now();
-  ros::Rate rate(options_.control_rate_hz);
+  ros::Rate rate(options_.stage.control_rate_hz);
   while (ros_layer::ok() && !have_info_ &&
          (ros::Time::now() - start).toSec() < options_.camera_info_wait_s) {
     ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
+    if (*node_.error()) std::rethrow_exception(*node_.error());
     rate.sleep();
   }
 }
 
 void CameraCalibrationNode::waitForRecordedCameraInfo() {
   // On wall time: the recording's clock starts (jumps) when rosbag play does.
-  ros::WallRate rate(options_.control_rate_hz);
+  ros::WallRate rate(options_.stage.control_rate_hz);
   ros::Time first;
   while (ros_layer::ok() && !have_info_) {
     ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
+    if (*node_.error()) std::rethrow_exception(*node_.error());
     const ros::Time now = ros::Time::now();
     if (first.isZero()) first = now;
     if (!first.isZero() && (now - first).toSec() >= options_.camera_info_wait_s) break;
@@ -275,7 +187,7 @@ void CameraCalibrationNode::waitForRecordedCameraInfo() {
   }
 }
 
-std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stageSetup() const {
+std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stageSetup() {
   CameraCalibrationConfig camera = camera_;
   SweepRunOptions run = options_.run;
   if (have_info_) {
@@ -286,51 +198,89 @@ std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stage
     ROS_INFO("camera_calibration_node: camera_info: %dx%d, fx %.1f: field of view %.2f rad%s",
              nominal.width, nominal.height, nominal.fx, run.sweep.camera_hfov_rad,
              options_.use_camera_info_guess ? ", the fit starts from it" : "");
+    const cv::Size size(info_.width, info_.height);
+    node_.holdFramesToSize(size);
+    if (frames_) frames_->holdToSize(size);
   } else {
     ROS_WARN(
         "camera_calibration_node: no camera_info in %.1f s: field of view %.2f rad "
         "(~camera_hfov_rad), the fit starts from OpenCV's own guess",
         options_.camera_info_wait_s, run.sweep.camera_hfov_rad);
   }
-  if (have_info_) frames_->holdToSize(cv::Size(info_.width, info_.height));
   return {camera, run};
 }
 
-void CameraCalibrationNode::publishStatus(bool force) {
-  const std::string phase = std::string("camera/") + name(run_->stage());
-  if (!status_throttle_.due(phase, ros::Time::now().toSec(), force)) return;
-  if (status_throttle_.keyChanged()) ROS_INFO("camera_calibration_node: %s", phase.c_str());
-  const Coverage c = run_->collector().coverage();
-  status_.running(phase, run_->progress(), run_->describe(),
-                  {{"views", c.views},
-                   {"sharp_views", static_cast<double>(run_->sharpViews().size())},
-                   {"frames", run_->framesProcessed()},
-                   {"frames_dropped", static_cast<double>(frames_->dropped())},
-                   {"steps", run_->controller().steps()},
-                   {"elapsed_s", run_->elapsedS()}});
+std::unique_ptr<Stage> CameraCalibrationNode::build() {
+  const auto setup = stageSetup();
+  auto run = std::make_unique<SweepRun>(setup.second, setup.first);
+  run->setCameraInfoFormat(ros_layer::cameraInfoYaml);
+  run_ = run.get();
+  return run;
+}
+
+void CameraCalibrationNode::setCameraInfo(const CameraIntrinsics& intrinsics,
+                                          const std::string& path) {
+  ros::ServiceClient client =
+      nh_.serviceClient<sensor_msgs::SetCameraInfo>("camera_node/set_camera_info");
+  sensor_msgs::SetCameraInfo srv;
+  srv.request.camera_info = ros_layer::toCameraInfo(intrinsics);
+  if (!client.waitForExistence(ros::Duration(2.0)) || !client.call(srv) || !srv.response.success) {
+    // The file is written: the camera node reads it at its next start.
+    ROS_WARN("camera_calibration_node: camera_node/set_camera_info failed (%s); %s is written",
+             srv.response.status_message.c_str(), path.c_str());
+  }
 }
 
 void CameraCalibrationNode::run() {
-  if (options_.resume &&
-      ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "camera"))
-    return;
-  if (options_.passive) return runPassive();
-  connect();
-  waitForCameraInfo();
-  const auto setup = stageSetup();
-  run_ = std::make_unique<SweepRun>(setup.second, setup.first);
-  if (encoders_->valid()) {
-    const double now = ros::Time::now().toSec();
-    run_->addEncoders(now, encoders_->left(), encoders_->right(), encoders_->resolution(), now);
+  if (options_.passive) {
+    if (options_.stage.resume &&
+        ros_layer::resumeStage(node_.status(), options_.stage.calibration_root, options_.stage.veh,
+                               "camera"))
+      return;
+    return runPassive();
   }
-  if (!ros_layer::runStageLoop(
-          *run_, [this] { return run_->swept(); }, options_.control_rate_hz, error_, arrivals_,
-          wheels_, [this] { publishStatus(false); }))
-    return;  // interrupted: runNode stops the wheels
-  finish();
+  ros_layer::StageNode::Hooks hooks;
+  hooks.inputs_connected = [this] { return info_sub_.getNumPublishers() > 0; };
+  hooks.before_build = [this] { waitForCameraInfo(); };
+  hooks.after_frame = [this](double, const cv::Mat& frame) { publishDebug(frame); };
+  hooks.after_finish = [this](StageResult& result) {
+    if (options_.set_camera_info) setCameraInfo(run_->calibration().intrinsics, result.file);
+  };
+  node_.run([this](int) { return build(); }, hooks);
 }
 
 void CameraCalibrationNode::runPassive() {
+  std::exception_ptr& error = *node_.error();
+  // The recording's frames, encoders, commands and statuses; the stage is built when camera_info
+  // is known, and nothing of the recording comes before rosbag play starts (replay.launch delays
+  // it). Every input keeps a long queue: rosbag play feeds faster than real time, and a lost
+  // encoder reading or frame changes what the replay computes.
+  frames_ = std::make_unique<ros_layer::FrameInput>(
+      nh_, options_.image_transport, "camera_calibration_node",
+      [this](const ros::Time& stamp) {
+        recording_->noteMessage();
+        return replay_ && replay_->wantsFrame(stamp.toSec());
+      },
+      [this](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
+        replay_->addFrame(stamp.toSec(), image, source);
+      },
+      &error, kReplayQueue);
+  encoders_ = std::make_unique<ros_layer::EncoderInput>(
+      nh_,
+      [this](const ros::Time& stamp, int left, int right, int) {
+        recording_->noteMessage();
+        if (replay_) replay_->addEncoders(stamp.toSec(), left, right);
+      },
+      &error, ros_layer::EncoderInput::WheelHandler(), kReplayQueue);
+  recording_ = std::make_unique<ros_layer::RecordingFollower>(
+      nh_, "camera", options_.recorded_status_topic,
+      [this](const ros::Time& stamp, const WheelDuties& d) {
+        if (replay_) replay_->addCommand(stamp.toSec(), d);
+      },
+      [this](const ros::Time& stamp, const std::string& phase) {
+        if (replay_) replay_->setCollecting(stamp.toSec(), phase == "camera/collect");
+      },
+      &error);
   // Camera_info comes from the recording: wait for the first (on the recording's clock, which
   // starts when rosbag play does).
   ROS_INFO(
@@ -340,16 +290,16 @@ void CameraCalibrationNode::runPassive() {
   waitForRecordedCameraInfo();
   const auto setup = stageSetup();
   replay_ = std::make_unique<SweepReplay>(setup.second, setup.first);
-  ros::WallRate rate(options_.control_rate_hz);
+  ros::WallRate rate(options_.stage.control_rate_hz);
   ros::WallTime last_status;
   while (ros_layer::ok() && !recording_->stageEnded()) {
     ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
-    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.status_rate_hz) {
-      status_.running("camera/replay", 0.9 * recording_->progress(), replay_->describe(),
-                      {{"stops", static_cast<double>(replay_->stops())},
-                       {"views", static_cast<double>(replay_->collector().coverage().views)},
-                       {"frames_dropped", static_cast<double>(frames_->dropped())}});
+    if (error) std::rethrow_exception(error);
+    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.stage.status_rate_hz) {
+      node_.status().running("camera/replay", 0.9 * recording_->progress(), replay_->describe(),
+                             {{"stops", static_cast<double>(replay_->stops())},
+                              {"views", static_cast<double>(replay_->collector().coverage().views)},
+                              {"frames_dropped", static_cast<double>(frames_->dropped())}});
       last_status = ros::WallTime::now();
     }
     if (recording_->recordingEnded(options_.recording_end_wait_s)) {
@@ -368,67 +318,23 @@ void CameraCalibrationNode::runPassive() {
         "camera_calibration_node: the recorded camera stage FAILED (%s); calibrating what "
         "it saw",
         recording_->failure().c_str());
-  status_.running("camera/calibrate", 0.95, replay_->describe());
+  node_.status().running("camera/calibrate", 0.95, replay_->describe());
   const CalibrationResult result = replay_->calibrate();  // throws when the gate refuses it
-  const std::string path = write(result, replay_->calibrationViews(), replay_->frames());
+  const std::string path =
+      cameraIntrinsicsPath(options_.stage.calibration_root, options_.stage.veh);
+  writeCameraCalibration(path, ros_layer::cameraInfoYaml(result.intrinsics, options_.stage.veh),
+                         camera_.board, result, replay_->calibrationViews(), replay_->frames());
   const CameraIntrinsics& in = result.intrinsics;
   ROS_INFO(
       "camera_calibration_node: replay: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, "
       "RMS %.3f px over %zu views (%s), %d stops",
       path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
       result.used_views.size(), result.fitted_terms.c_str(), replay_->stops());
-  ros_layer::StatusPublisher::Figures figures = resultFigures(result);
+  Figures figures = calibrationFigures(result);
   figures.insert(figures.end(), {{"stops", static_cast<double>(replay_->stops())},
                                  {"sweep_s", replay_->elapsedS()},
                                  {"frames_dropped", static_cast<double>(frames_->dropped())}});
-  status_.wrote("camera/write", path, figures);
-}
-
-std::string CameraCalibrationNode::write(const CalibrationResult& result,
-                                         const std::vector<CalibrationView>& views,
-                                         const std::map<int, cv::Mat>& frames) {
-  const std::string path =
-      (fs::path(options_.calibration_root) / "camera_intrinsic" / (options_.veh + ".yaml"))
-          .string();
-  std::error_code ec;
-  fs::create_directories(fs::path(path).parent_path(), ec);
-  if (ec) throw IoError(fs::path(path).parent_path().string() + ": cannot create: " + ec.message());
-  writeCameraCalibration(path, ros_layer::cameraInfoYaml(result.intrinsics, options_.veh),
-                         camera_.board, result, views, frames);
-  return path;
-}
-
-void CameraCalibrationNode::finish() {
-  status_.running("camera/calibrate", 0.95, run_->describe());
-  const CalibrationResult result = run_->calibrate();  // throws when the gate refuses it
-  const CameraIntrinsics& in = result.intrinsics;
-  const std::string path = write(result, run_->calibrationViews(), run_->frames());
-  ROS_INFO(
-      "camera_calibration_node: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, RMS %.3f "
-      "px over %zu views (%s), sweep %.1f s",
-      path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
-      result.used_views.size(), result.fitted_terms.c_str(), run_->elapsedS());
-  if (options_.set_camera_info) {
-    ros::ServiceClient client =
-        nh_.serviceClient<sensor_msgs::SetCameraInfo>("camera_node/set_camera_info");
-    sensor_msgs::SetCameraInfo srv;
-    srv.request.camera_info = ros_layer::toCameraInfo(in);
-    if (!client.waitForExistence(ros::Duration(2.0)) || !client.call(srv) ||
-        !srv.response.success) {
-      // The file is written: the camera node reads it at its next start.
-      ROS_WARN("camera_calibration_node: camera_node/set_camera_info failed (%s); %s is written",
-               srv.response.status_message.c_str(), path.c_str());
-    }
-  }
-  const MinDutyResult d = run_->minDuty();
-  ros_layer::StatusPublisher::Figures figures = resultFigures(result);
-  figures.insert(figures.end(), {{"sweep_s", run_->elapsedS()},
-                                 {"frames_dropped", static_cast<double>(frames_->dropped())},
-                                 {"min_duty_left_forward", d.left_forward},
-                                 {"min_duty_left_backward", d.left_backward},
-                                 {"min_duty_right_forward", d.right_forward},
-                                 {"min_duty_right_backward", d.right_backward}});
-  status_.wrote("camera/write", path, figures);
+  node_.status().wrote("camera/write", path, figures);
 }
 
 }  // namespace camera

@@ -21,44 +21,33 @@
 
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
-#include <sensor_msgs/CompressedImage.h>
-#include <sensor_msgs/Image.h>
 
-#include <exception>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_replay.h"
 #include "autocal/camera/sweep_run.h"
-#include "autocal/status_throttle.h"
-#include "autocal_ros/msgs.h"
-#include "autocal_ros/node_runtime.h"
 #include "autocal_ros/sensor_inputs.h"
+#include "autocal_ros/stage_node.h"
 
 namespace autocal {
 namespace camera {
 
 struct CameraCalibrationNodeOptions {
-  std::string veh;  ///< default: the last component of the node's namespace
-  std::string calibration_root = "/data/config/calibrations";
-  /// Resuming a run after a failure: keep this stage's result when the run's last report says
-  /// it succeeded and its file still exists (ros_layer::resumeStage).
-  bool resume = false;
+  /// veh, calibration_root, resume, control_rate_hz (>= 10: pulses are 0.1 s), connect_wait_s
+  /// (for the camera, camera_info and encoder publishers), status_rate_hz.
+  ros_layer::StageNodeOptions stage;
   std::string camera_config;        ///< default: the package's config/camera_calibration.yaml
   std::string board_inner_corners;  ///< e.g. "7x5"; empty: the config's
   double board_square_m = 0;        ///< 0: the config's
   std::string image_transport = "compressed";  ///< "compressed" or "raw"
-  double control_rate_hz = 50;
   /// Wait this long at the start for camera_info [s]; without it the fit starts from OpenCV's
   /// own guess and the sweep from ~camera_hfov_rad.
   double camera_info_wait_s = 3.0;
   bool use_camera_info_guess = true;
-  /// Wait up to this long [wall s] for the camera, camera_info and encoder publishers before the
-  /// wheels are advertised (see connect()).
-  double connect_wait_s = 5.0;
   bool set_camera_info = false;  ///< call camera_node/set_camera_info with the result
-  double status_rate_hz = 2.0;
   /// Replay a recording instead of driving the robot (see above).
   bool passive = false;
   /// Passive: where the recording's calibration/status is played (replay.launch remaps it).
@@ -79,43 +68,30 @@ class CameraCalibrationNode {
   void run();
 
  private:
-  /// Notes a frame's arrival; true when the stage wants it decoded.
-  bool frameWanted(const ros::Time& stamp);
-  void onCameraInfo(const sensor_msgs::CameraInfo::ConstPtr& msg);
-  /// Callbacks keep their exception for run() to rethrow (one failure path).
-  template <typename F>
-  void guarded(F&& f);
-  void connect();
+  std::unique_ptr<Stage> build();
   /// Waits up to camera_info_wait_s for camera_info (passive: in the recording, on wall time).
   void waitForCameraInfo();
   void waitForRecordedCameraInfo();
   /// The camera config and run options (camera_info's field of view and guess, when it came).
-  std::pair<CameraCalibrationConfig, SweepRunOptions> stageSetup() const;
-  void publishStatus(bool force);
+  std::pair<CameraCalibrationConfig, SweepRunOptions> stageSetup();
   void publishDebug(const cv::Mat& frame);
-  void finish();
+  void setCameraInfo(const CameraIntrinsics& intrinsics, const std::string& path);
   void runPassive();
-  /// Writes the calibration file and its audit folder; returns the file's path.
-  std::string write(const CalibrationResult& result, const std::vector<CalibrationView>& views,
-                    const std::map<int, cv::Mat>& frames);
 
   ros::NodeHandle nh_, pnh_;
   CameraCalibrationNodeOptions options_;
   CameraCalibrationConfig camera_;
-  std::unique_ptr<SweepRun> run_;
-  std::unique_ptr<SweepReplay> replay_;                      ///< passive
-  std::unique_ptr<ros_layer::RecordingFollower> recording_;  ///< passive
-  ros_layer::StatusPublisher status_;
-  ros_layer::WheelsCommander wheels_;
+  ros_layer::StageNode node_;
+  SweepRun* run_ = nullptr;  ///< the stage, once built
   ros::Publisher debug_pub_;
   ros::Subscriber info_sub_;
-  std::unique_ptr<ros_layer::FrameInput> frames_;
-  std::unique_ptr<ros_layer::EncoderInput> encoders_;
   bool have_info_ = false;
   sensor_msgs::CameraInfo info_;
-  ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
-  std::exception_ptr error_;
-  StatusThrottle status_throttle_;
+  // Passive:
+  std::unique_ptr<SweepReplay> replay_;
+  std::unique_ptr<ros_layer::RecordingFollower> recording_;
+  std::unique_ptr<ros_layer::FrameInput> frames_;
+  std::unique_ptr<ros_layer::EncoderInput> encoders_;
 };
 
 }  // namespace camera

@@ -28,6 +28,11 @@ void OdometryCalibrationNodeOptions::validate() const {
                         "must be >= 0 (0: from the encoder messages)");
   ros_layer::checkParam(method == "uah" || method == "umbmark", "method",
                         "must be uah or umbmark, got '" + method + "'");
+  ros_layer::checkParam(
+      stage.after_stage.empty() || stage.after_stage == "camera" || stage.after_stage == "wheels",
+      "after_stage", "must be empty, camera or wheels, got '" + stage.after_stage + "'");
+  ros_layer::checkParam(std::isfinite(stage.after_stage_wait_s) && stage.after_stage_wait_s >= 0,
+                        "after_stage_wait_s", "must be >= 0 [s]");
   UahRunOptions r = run;
   r.nominal = DiffDriveParams::fromWheel(2 * wheel_radius_m, 100, wheelbase_m);  // set later
   ros_layer::validateParams(r);
@@ -51,7 +56,9 @@ OdometryCalibrationNodeOptions checked(const OdometryCalibrationNodeOptions& o) 
 OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "odometry_calibration_node");
   OdometryCalibrationNodeOptions o;
-  o.stage = ros_layer::readStageNodeOptions(p, nh, 20, true);
+  o.stage = ros_layer::readStageNodeOptions(p, nh, 20);
+  p.get("after_stage", o.stage.after_stage);
+  p.get("after_stage_wait_s", o.stage.after_stage_wait_s);
   p.get("wheel_radius_m", o.wheel_radius_m);
   p.get("wheelbase_m", o.wheelbase_m);
   p.get("ticks_per_revolution", o.ticks_per_revolution);

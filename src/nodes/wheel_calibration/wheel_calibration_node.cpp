@@ -4,13 +4,10 @@
 
 #include <cmath>
 #include <filesystem>
-#include <opencv2/imgproc.hpp>
 
 #include "autocal/errors.h"
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
-#include "autocal/io/format.h"
-#include "autocal/io/image_file.h"
-#include "autocal/odometry/calibration_file.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
 #include "autocal_ros/tag_params.h"
@@ -19,22 +16,13 @@ namespace autocal {
 namespace wheels {
 
 void WheelCalibrationNodeOptions::validate() const {
-  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
-                        "must be a non-empty name without '/'");
-  ros_layer::checkCalibrationRoot(calibration_root);
   ros_layer::checkLength("tag_size_m", run.detector.tag_size_m, ranges::kTagSize);
   ros_layer::checkLength("camera_height_m", run.mount.height_m, ranges::kCameraHeight);
   ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
                         "image_transport",
                         "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 20, "control_rate_hz",
-                        "must be >= 20 Hz");
   ros_layer::checkParam(std::isfinite(camera_stage_wait_s) && camera_stage_wait_s >= 0,
                         "camera_stage_wait_s", "must be >= 0");
-  ros_layer::checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
-                        "must be >= 0");
-  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
-                        "must be > 0");
   ros_layer::checkParam(std::isfinite(deadband_guess) && deadband_guess < 0.9, "deadband_guess",
                         "must be < 0.9 (negative: automatic)");
   ros_layer::checkParam(std::isfinite(deadband_guess_resolution) &&
@@ -54,16 +42,10 @@ namespace {
 WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "wheel_calibration_node");
   WheelCalibrationNodeOptions o;
-  o.veh = ros_layer::defaultVeh(nh);
-  p.get("veh", o.veh);
-  p.get("calibration_root", o.calibration_root);
-  p.get("resume", o.resume);
+  o.stage = ros_layer::readStageNodeOptions(p, nh, 20);
   p.get("intrinsics_file", o.intrinsics_file);
   p.get("camera_stage_wait_s", o.camera_stage_wait_s);
   p.get("image_transport", o.image_transport);
-  p.get("control_rate_hz", o.control_rate_hz);
-  p.get("connect_wait_s", o.connect_wait_s);
-  p.get("status_rate_hz", o.status_rate_hz);
   p.get("update_kinematics_node", o.update_kinematics_node);
   p.get("deadband_guess", o.deadband_guess);
   p.get("deadband_guess_resolution", o.deadband_guess_resolution);
@@ -107,7 +89,31 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("extrinsics_drives", r.extrinsics_drives);
   p.get("extrinsics_max_floor_sigma_m", r.extrinsics_max_floor_sigma_m);
   o.validate();
+  // The output folders, before the robot moves (the files are written after the last drive).
+  checkWritableFolder(std::filesystem::path(kinematicsPath(o.stage.calibration_root, o.stage.veh))
+                          .parent_path()
+                          .string());
+  if (r.extrinsics_spins > 0 && !o.passive)
+    checkWritableFolder(
+        std::filesystem::path(extrinsics::extrinsicsPath(o.stage.calibration_root, o.stage.veh))
+            .parent_path()
+            .string());
   return o;
+}
+
+/// The StageNode's options: the wait for the camera stage unless the intrinsics are given.
+ros_layer::StageNodeOptions stageOptions(const WheelCalibrationNodeOptions& o) {
+  ros_layer::StageNodeOptions stage = o.stage;
+  if (o.intrinsics_file.empty()) stage.after_stage = "camera";
+  stage.after_stage_wait_s = o.camera_stage_wait_s;
+  return stage;
+}
+
+ros_layer::StageInputs stageInputs(const WheelCalibrationNodeOptions& o) {
+  ros_layer::StageInputs in;
+  in.image_transport = o.image_transport;
+  in.pair_encoders = true;
+  return in;
 }
 
 /// A paired count (EncoderPairer's, fractional where interpolated) as the stage takes it.
@@ -133,88 +139,72 @@ WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle p
     : nh_(nh),
       pnh_(pnh),
       options_(readOptions(nh, pnh)),
-      status_throttle_(options_.status_rate_hz) {
-  kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
-  extrinsics_path_ = extrinsics::extrinsicsPath(options_.calibration_root, options_.veh);
-  before_ = readKinematicsFileOrDefaults(kinematics_path_);  // a malformed file is an error
-  // The output folder, before the robot moves (the file is written after the last drive).
-  checkWritableFolder(std::filesystem::path(kinematics_path_).parent_path().string());
-  if (options_.run.extrinsics_spins > 0 && !options_.passive)
-    checkWritableFolder(std::filesystem::path(extrinsics_path_).parent_path().string());
-  status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
+      before_(readKinematicsFileOrDefaults(  // a malformed file is an error
+          kinematicsPath(options_.stage.calibration_root, options_.stage.veh))),
+      kinematics_path_(kinematicsPath(options_.stage.calibration_root, options_.stage.veh)),
+      node_(nh, "wheel_calibration_node", "wheels", stageOptions(options_), stageInputs(options_),
+            options_.intrinsics_file.empty() ? "waiting for the camera stage"
+                                             : "waiting for the camera and the encoders") {
+  // Given intrinsics that cannot be read fail before anything else.
+  if (!options_.intrinsics_file.empty() && !options_.passive) readIntrinsics();
   detections_pub_ =
       nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);
-  status_.running("wheels/wait", 0,
-                  options_.intrinsics_file.empty() ? "waiting for the camera stage"
-                                                   : "waiting for the camera and the encoders");
 }
 
-void WheelCalibrationNode::waitForCameraStage() {
-  if (!options_.intrinsics_file.empty()) return;
-  ROS_INFO("wheel_calibration_node: waiting for the camera stage's DONE on %s",
-           status_.topic().c_str());
-  const autocal::CalibrationStatus done =
-      ros_layer::waitForStage(nh_, "camera", options_.camera_stage_wait_s);  // throws
-  if (!ros_layer::ok()) return;
-  options_.intrinsics_file = fileOfDone(done);
-  camera_min_duty_left_ = figure(done, "min_duty_left_forward");
-  camera_min_duty_right_ = figure(done, "min_duty_right_forward");
-}
-
-void WheelCalibrationNode::connect() {
-  wheels_ = ros_layer::connectStage(
-      nh_, [this] { return frames_->publishers() > 0 && encoders_->connected(); },
-      options_.connect_wait_s);
-}
-
-void WheelCalibrationNode::publishDetections(const ros::Time& stamp) {
+void WheelCalibrationNode::publishDetections(double stamp_s) {
   if (detections_pub_.getNumSubscribers() == 0) return;
   dtmsg::AprilTagDetectionArray msg;
-  msg.header.stamp = stamp;
+  msg.header.stamp = ros_layer::toRosTime(stamp_s);
   for (const auto& d : run_->lastDetections())
     msg.detections.push_back(ros_layer::toTagDetectionMsg(d));
   detections_pub_.publish(msg);
 }
 
-void WheelCalibrationNode::publishStatus(bool force) {
-  const std::string phase = std::string("wheels/") + name(run_->stage());
-  if (!status_throttle_.due(phase, ros::Time::now().toSec(), force)) return;
-  const auto& hist = run_->estimator().history();
-  if (status_throttle_.keyChanged() || hist.size() != last_drives_) {
-    ROS_INFO("wheel_calibration_node: %s: %s", phase.c_str(), run_->describe().c_str());
-    last_drives_ = hist.size();
+void WheelCalibrationNode::run() {
+  if (options_.passive) {
+    if (options_.stage.resume &&
+        ros_layer::resumeStage(node_.status(), options_.stage.calibration_root, options_.stage.veh,
+                               "wheels"))
+      return;
+    return runPassive();
   }
-  const auto& h = run_->estimator().history();
-  status_.running(
-      phase, run_->progress(), run_->describe(),
-      {{"iteration", static_cast<double>(h.size())},
-       {"k", run_->estimator().ratio()},
-       {"trim", run_->result().trim},
-       {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
-       {"heading_rad", std::isfinite(run_->lastHeadingRad()) ? run_->lastHeadingRad() : 0.0},
-       {"frames_dropped", static_cast<double>(frames_->dropped())},
-       {"elapsed_s", run_->elapsedS()}});
+  ros_layer::StageNode::Hooks hooks;
+  hooks.after_frame = [this](double stamp_s, const cv::Mat&) { publishDetections(stamp_s); };
+  hooks.after_finish = [this](StageResult&) {
+    if (options_.run.extrinsics_spins > 0 && !run_->extrinsicsResult())
+      ROS_WARN("wheel_calibration_node: no camera extrinsics written: %s",
+               run_->extrinsicsFailure().c_str());
+    if (!options_.update_kinematics_node) return;
+    // The running kinematics node polls its parameters: the new trim applies without a restart.
+    const KinematicsParams k = run_->result();
+    nh_.setParam("kinematics_node/trim", k.trim);
+    nh_.setParam("kinematics_node/deadband_left", k.deadband_left);
+    nh_.setParam("kinematics_node/deadband_right", k.deadband_right);
+  };
+  node_.run([this](int) { return build(); }, hooks);
 }
 
-void WheelCalibrationNode::run() {
-  if (options_.resume &&
-      ros_layer::resumeStage(status_, options_.calibration_root, options_.veh, "wheels"))
-    return;
-  if (options_.passive) return runPassive();
-  waitForCameraStage();
-  if (!ros_layer::ok()) return;
+std::unique_ptr<Stage> WheelCalibrationNode::build() {
+  double camera_min_duty_left = -1, camera_min_duty_right = -1;
+  if (options_.intrinsics_file.empty()) {
+    const autocal::CalibrationStatus& done = node_.afterStageDone();
+    options_.intrinsics_file = fileOfDone(done);
+    camera_min_duty_left = figure(done, "min_duty_left_forward");
+    camera_min_duty_right = figure(done, "min_duty_right_forward");
+  }
   const CameraIntrinsics intrinsics = readIntrinsics();
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
+  r.intrinsics_file = options_.intrinsics_file;
   double guess_left = options_.deadband_guess, guess_right = options_.deadband_guess;
-  if (guess_left < 0 && camera_min_duty_left_ >= 0 && camera_min_duty_right_ >= 0) {
-    const DeadbandGuesses g = deadbandGuesses(camera_min_duty_left_, camera_min_duty_right_,
+  if (guess_left < 0 && camera_min_duty_left >= 0 && camera_min_duty_right >= 0) {
+    const DeadbandGuesses g = deadbandGuesses(camera_min_duty_left, camera_min_duty_right,
                                               options_.deadband_guess_resolution);
     guess_left = g.left;
     guess_right = g.right;
   } else if (guess_left < 0) {
-    guess_left = camera_min_duty_left_ >= 0 ? camera_min_duty_left_ : before_.deadband_left;
-    guess_right = camera_min_duty_right_ >= 0 ? camera_min_duty_right_ : before_.deadband_right;
+    guess_left = camera_min_duty_left >= 0 ? camera_min_duty_left : before_.deadband_left;
+    guess_right = camera_min_duty_right >= 0 ? camera_min_duty_right : before_.deadband_right;
   }
   r.kinematics.deadband_left = guess_left;
   r.kinematics.deadband_right = guess_right;
@@ -222,36 +212,10 @@ void WheelCalibrationNode::run() {
       "wheel_calibration_node: intrinsics %s (fx %.1f), kinematics %s, deadband guess %.3f/%.3f",
       options_.intrinsics_file.c_str(), intrinsics.fx, kinematics_path_.c_str(), guess_left,
       guess_right);
-  run_ = std::make_unique<WheelRun>(r, intrinsics);
-
-  frames_ = std::make_unique<ros_layer::FrameInput>(
-      nh_, options_.image_transport, "wheel_calibration_node",
-      [this](const ros::Time& stamp) {
-        arrivals_.frames = true;
-        run_->noteFrameArrived(ros::Time::now().toSec());
-        return run_->wantsFrame(stamp.toSec());
-      },
-      [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
-        run_->addFrame(stamp.toSec(), image);
-        if (run_->stage() == WheelRunStage::kExtrinsics) image.copyTo(ground_frame_);
-        publishDetections(stamp);
-      },
-      &error_);
-  frames_->holdToSize(intrinsics.imageSize());
-  encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_, [this](const ros::Time&, int, int, int) { arrivals_.encoders = true; }, &error_,
-      [this](int side, const ros::Time& stamp, std::int32_t ticks, int resolution) {
-        for (const EncoderPairer::Pair& p : pairer_.add(side, stamp.toSec(), ticks)) {
-          run_->addEncoders(p.stamp_s, count(p.left_ticks), count(p.right_ticks), resolution,
-                            ros::Time::now().toSec());
-        }
-      });
-  connect();
-  if (!ros_layer::runStageLoop(
-          *run_, [this] { return run_->done(); }, options_.control_rate_hz, error_, arrivals_,
-          wheels_, [this] { publishStatus(false); }))
-    return;  // interrupted: runNode stops the wheels
-  finish();
+  auto run = std::make_unique<WheelRun>(r, intrinsics);
+  node_.holdFramesToSize(intrinsics.imageSize());
+  run_ = run.get();
+  return run;
 }
 
 CameraIntrinsics WheelCalibrationNode::readIntrinsics() const {
@@ -273,7 +237,7 @@ void WheelCalibrationNode::onStageStatus(const autocal::CalibrationStatus::Const
   try {
     options_.intrinsics_file = fileOfDone(*msg);
   } catch (...) {
-    error_ = std::current_exception();
+    *node_.error() = std::current_exception();
   }
 }
 
@@ -284,6 +248,7 @@ constexpr uint32_t kReplayQueue = 2000;
 }  // namespace
 
 void WheelCalibrationNode::runPassive() {
+  std::exception_ptr& error = *node_.error();
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
   ROS_INFO(
@@ -311,7 +276,7 @@ void WheelCalibrationNode::runPassive() {
         // commands, encoders and frames are the wheel stage's.
         if (!replay_ && phase != "wheels/wait") replay_ = std::make_unique<WheelReplay>(r);
       },
-      &error_);
+      &error);
   frames_ = std::make_unique<ros_layer::FrameInput>(
       nh_, options_.image_transport, "wheel_calibration_node",
       [this](const ros::Time& stamp) {
@@ -321,9 +286,9 @@ void WheelCalibrationNode::runPassive() {
       [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
         replay_->addFrame(stamp.toSec(), image);
       },
-      &error_, kReplayQueue);
+      &error, kReplayQueue);
   encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_, [this](const ros::Time&, int, int, int) { recording_->noteMessage(); }, &error_,
+      nh_, [this](const ros::Time&, int, int, int) { recording_->noteMessage(); }, &error,
       [this](int side, const ros::Time& stamp, std::int32_t ticks, int resolution) {
         for (const EncoderPairer::Pair& p : pairer_.add(side, stamp.toSec(), ticks)) {
           if (replay_)
@@ -335,20 +300,20 @@ void WheelCalibrationNode::runPassive() {
   auto describe = [&] {
     return replay_ ? replay_->describe() : std::string("waiting for the recorded wheel stage");
   };
-  ros::WallRate rate(options_.control_rate_hz);
+  ros::WallRate rate(options_.stage.control_rate_hz);
   ros::WallTime last_status;
   auto spin = [&](const std::string& phase, double progress) {
     ros::spinOnce();
-    if (error_) std::rethrow_exception(error_);
+    if (error) std::rethrow_exception(error);
     if (!camera_failure_.empty())
       throw CalibrationError("the camera stage failed (" + camera_failure_ +
                              "): the wheel stage needs its intrinsics");
     setIntrinsics();
-    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.status_rate_hz) {
-      status_.running(phase, progress, describe(),
-                      {{"drives", replay_ ? static_cast<double>(replay_->drives()) : 0.0},
-                       {"stills", replay_ ? static_cast<double>(replay_->stills()) : 0.0},
-                       {"frames_dropped", static_cast<double>(frames_->dropped())}});
+    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.stage.status_rate_hz) {
+      node_.status().running(phase, progress, describe(),
+                             {{"drives", replay_ ? static_cast<double>(replay_->drives()) : 0.0},
+                              {"stills", replay_ ? static_cast<double>(replay_->stills()) : 0.0},
+                              {"frames_dropped", static_cast<double>(frames_->dropped())}});
       last_status = ros::WallTime::now();
     }
     rate.sleep();
@@ -392,13 +357,13 @@ void WheelCalibrationNode::runPassive() {
   // Each update of the replayed iteration, as the live stage published them (the report's k plot).
   for (std::size_t i = 0; i < result.iterations.size(); ++i) {
     const TrimIteration& it = result.iterations[i];
-    status_.running("wheels/replay", 0.95, describe(),
-                    {{"iteration", static_cast<double>(i + 1)},
-                     {"k", it.ratio_after},
-                     {"trim", trimFromSpeedRatio(it.ratio_after, result.kinematics.gain)},
-                     {"last_dtheta_rad", it.delta_theta_rad}});
+    node_.status().running("wheels/replay", 0.95, describe(),
+                           {{"iteration", static_cast<double>(i + 1)},
+                            {"k", it.ratio_after},
+                            {"trim", trimFromSpeedRatio(it.ratio_after, result.kinematics.gain)},
+                            {"last_dtheta_rad", it.delta_theta_rad}});
   }
-  status_.running("wheels/write", 0.98, describe());
+  node_.status().running("wheels/write", 0.98, describe());
   writeKinematicsFile(kinematics_path_, result.kinematics);  // validates first; throws on failure
   const KinematicsParams& k = result.kinematics;
   ROS_INFO(
@@ -406,97 +371,15 @@ void WheelCalibrationNode::runPassive() {
       "over %d drives, %d/%d stills measured",
       kinematics_path_.c_str(), k.trim, k.deadband_left, k.deadband_right, result.iterations.size(),
       result.drives, result.measured, result.stills);
-  status_.wrote("wheels/write", kinematics_path_,
-                {{"trim", k.trim},
-                 {"trim_before", before_.trim},
-                 {"k", result.iterations.back().ratio_after},
-                 {"deadband_left", k.deadband_left},
-                 {"deadband_right", k.deadband_right},
-                 {"drives", static_cast<double>(result.iterations.size())},
-                 {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
-                 {"frames_dropped", static_cast<double>(frames_->dropped())}});
-}
-
-ros_layer::StatusPublisher::Figures WheelCalibrationNode::writeExtrinsics() {
-  if (options_.run.extrinsics_spins == 0) return {};
-  const extrinsics::TagMountResult* x = run_->extrinsicsResult();
-  if (!x) {
-    // The trim is right all the same: the stage succeeds, without the extrinsics file.
-    ROS_WARN("wheel_calibration_node: no camera extrinsics written: %s",
-             run_->extrinsicsFailure().c_str());
-    return {{"extrinsics_written", 0.0}};
-  }
-  const extrinsics::CameraInfoRectification camera =
-      extrinsics::loadRectification(options_.intrinsics_file);
-  const extrinsics::CameraMount& m = x->mount;
-  const Eigen::Matrix3d H = extrinsics::homographyFromMount(m, camera.rectified);
-  writeFileAtomically(
-      extrinsics_path_,
-      extrinsics::extrinsicsYaml(
-          H, m, x->has_sigma ? &x->sigma : nullptr,
-          {{"plane_rms_m", x->plane_rms_m},
-           {"rejected_sightings", static_cast<double>(x->rejected)},
-           {"turn_centre_rms_m", x->centre_rms_m},
-           {"yaw_spread_rad", x->yaw_spread_rad},
-           {"drives", static_cast<double>(x->straight)},
-           {"turns", static_cast<double>(x->spins)}},
-          camera.rectified,
-          "the floor tags of the wheel stage (intrinsics " + options_.intrinsics_file + ")",
-          odometry::utcNowIso8601()));
-  if (!ground_frame_.empty()) {
-    // For a person to check: the floor grid where the homography puts it, over the last still.
-    cv::Mat view = extrinsics::rectifyImage(ground_frame_, camera);
-    if (view.channels() == 1) cv::cvtColor(view, view, cv::COLOR_GRAY2BGR);
-    extrinsics::drawFloorGrid(view, H);
-    writePngAtomically(extrinsics::groundViewPath(extrinsics_path_), view);
-  }
-  ROS_INFO(
-      "wheel_calibration_node: wrote %s: camera %.1f mm high, pitch %.2f deg, roll %.2f deg, yaw "
-      "%.2f deg, %.1f mm ahead of the axle, %.1f mm left (%d drives, %d turns)",
-      extrinsics_path_.c_str(), 1e3 * m.height_m, m.pitch_rad * 180 / M_PI, m.roll_rad * 180 / M_PI,
-      m.yaw_rad * 180 / M_PI, 1e3 * m.x_m, 1e3 * m.y_m, x->straight, x->spins);
-  return {{"extrinsics_written", 1.0},
-          {"camera_height_m", m.height_m},
-          {"camera_pitch_rad", m.pitch_rad},
-          {"camera_roll_rad", m.roll_rad},
-          {"camera_yaw_rad", m.yaw_rad},
-          {"camera_x_m", m.x_m},
-          {"camera_y_m", m.y_m}};
-}
-
-void WheelCalibrationNode::finish() {
-  const KinematicsParams result = run_->result();
-  status_.running("wheels/write", 0.98, run_->describe());
-  writeKinematicsFile(kinematics_path_, result);  // validates first; throws on failure
-  const ros_layer::StatusPublisher::Figures extrinsic_figures = writeExtrinsics();
-  if (options_.update_kinematics_node) {
-    // The running kinematics node polls its parameters: the new trim applies without a restart.
-    nh_.setParam("kinematics_node/trim", result.trim);
-    nh_.setParam("kinematics_node/deadband_left", result.deadband_left);
-    nh_.setParam("kinematics_node/deadband_right", result.deadband_right);
-  }
-  const auto& h = run_->estimator().history();
-  ROS_INFO(
-      "wheel_calibration_node: wrote %s: trim %.4f (was %.4f), k %.5f, deadband %.4f/%.4f, %zu "
-      "drives, %.1f s",
-      kinematics_path_.c_str(), result.trim, before_.trim, run_->estimator().ratio(),
-      result.deadband_left, result.deadband_right, h.size(), run_->elapsedS());
-  ros_layer::StatusPublisher::Figures figures = {
-      {"trim", result.trim},
-      {"trim_before", before_.trim},
-      {"k", run_->estimator().ratio()},
-      {"deadband_left", result.deadband_left},
-      {"deadband_right", result.deadband_right},
-      {"drives", static_cast<double>(h.size())},
-      {"last_dtheta_rad", h.empty() ? 0.0 : h.back().delta_theta_rad},
-      {"frames_dropped", static_cast<double>(frames_->dropped())},
-      {"elapsed_s", run_->elapsedS()}};
-  figures.insert(figures.end(), extrinsic_figures.begin(), extrinsic_figures.end());
-  // The stage succeeds without the extrinsics; its DONE says why they are missing.
-  const std::string missing = options_.run.extrinsics_spins > 0 && !run_->extrinsicsResult()
-                                  ? "; no camera extrinsics: " + run_->extrinsicsFailure()
-                                  : "";
-  status_.done("wheels/write", "wrote " + kinematics_path_ + missing, figures, kinematics_path_);
+  node_.status().wrote("wheels/write", kinematics_path_,
+                       {{"trim", k.trim},
+                        {"trim_before", before_.trim},
+                        {"k", result.iterations.back().ratio_after},
+                        {"deadband_left", k.deadband_left},
+                        {"deadband_right", k.deadband_right},
+                        {"drives", static_cast<double>(result.iterations.size())},
+                        {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
+                        {"frames_dropped", static_cast<double>(frames_->dropped())}});
 }
 
 }  // namespace wheels

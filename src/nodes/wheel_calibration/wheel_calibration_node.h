@@ -21,6 +21,8 @@
 // recorded wheel stage ended writes kinematics/<veh>.yaml as above. A recording that ends before
 // the stage did, or whose replayed iteration does not converge, is a failure.
 
+#pragma once
+
 #include <ros/ros.h>
 
 #include <exception>
@@ -28,32 +30,24 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "autocal/extrinsics/extrinsics_file.h"
-#include "autocal/status_throttle.h"
 #include "autocal/wheels/wheel_replay.h"
 #include "autocal/wheels/wheel_run.h"
 #include "autocal_ros/msgs.h"
-#include "autocal_ros/node_runtime.h"
 #include "autocal_ros/sensor_inputs.h"
+#include "autocal_ros/stage_node.h"
 
 namespace autocal {
 namespace wheels {
 
 struct WheelCalibrationNodeOptions {
-  std::string veh;  ///< default: the last component of the node's namespace
-  std::string calibration_root = "/data/config/calibrations";
-  /// Resuming a run after a failure: keep this stage's result when the run's last report says
-  /// it succeeded and its file still exists (ros_layer::resumeStage).
-  bool resume = false;
+  /// veh, calibration_root, resume, control_rate_hz (>= 20), connect_wait_s, status_rate_hz.
+  ros_layer::StageNodeOptions stage;
   /// A camera_info YAML to start with at once; empty: wait for the camera stage's DONE and use the
   /// file it names.
   std::string intrinsics_file;
   /// How long to wait for the camera stage [s]; 0: no limit.
   double camera_stage_wait_s = 0;
   std::string image_transport = "compressed";
-  double control_rate_hz = 50;
-  double connect_wait_s = 5.0;
-  double status_rate_hz = 2.0;
   /// Set the running kinematics_node's trim and deadband parameters to the result.
   bool update_kinematics_node = true;
   /// First guess of each wheel's deadband [duty]; negative: the camera stage's minimum moving duty
@@ -84,13 +78,10 @@ class WheelCalibrationNode {
   void run();
 
  private:
-  void waitForCameraStage();
-  void connect();
-  void publishStatus(bool force);
-  void publishDetections(const ros::Time& stamp);
-  void finish();
-  /// Writes camera_extrinsic/<veh>.yaml when the stage measured the mount; its DONE figures.
-  ros_layer::StatusPublisher::Figures writeExtrinsics();
+  /// The stage, from the intrinsics (~intrinsics_file, or the camera stage's DONE) and the
+  /// deadband guesses.
+  std::unique_ptr<Stage> build();
+  void publishDetections(double stamp_s);
   void runPassive();
   /// Passive: the camera stage's DONE (or FAILED) on calibration/status.
   void onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg);
@@ -98,26 +89,18 @@ class WheelCalibrationNode {
 
   ros::NodeHandle nh_, pnh_;
   WheelCalibrationNodeOptions options_;
-  std::unique_ptr<WheelRun> run_;
-  std::unique_ptr<WheelReplay> replay_;                      ///< passive
-  std::unique_ptr<ros_layer::RecordingFollower> recording_;  ///< passive
-  ros::Subscriber stage_status_sub_;                         ///< passive
-  std::string camera_failure_;                               ///< passive
-  ros_layer::StatusPublisher status_;
-  ros_layer::WheelsCommander wheels_;
-  std::unique_ptr<ros_layer::FrameInput> frames_;
-  std::unique_ptr<ros_layer::EncoderInput> encoders_;
-  ros::Publisher detections_pub_;
-  double camera_min_duty_left_ = -1, camera_min_duty_right_ = -1;
-  ros_layer::Arrivals arrivals_;  ///< in the current batch of callbacks
-  std::exception_ptr error_;
-  StatusThrottle status_throttle_;
-  size_t last_drives_ = 0;
   KinematicsParams before_;
   std::string kinematics_path_;
-  std::string extrinsics_path_;
-  /// The last frame of the extrinsics' stills: the ground view drawn beside the extrinsics file.
-  cv::Mat ground_frame_;
+  ros_layer::StageNode node_;
+  WheelRun* run_ = nullptr;  ///< the stage, once built
+  ros::Publisher detections_pub_;
+  // Passive:
+  std::unique_ptr<WheelReplay> replay_;
+  std::unique_ptr<ros_layer::RecordingFollower> recording_;
+  ros::Subscriber stage_status_sub_;
+  std::string camera_failure_;
+  std::unique_ptr<ros_layer::FrameInput> frames_;
+  std::unique_ptr<ros_layer::EncoderInput> encoders_;
   /// Both wheels' counts at one stamp, from the two encoders' messages: paired as they arrive they
   /// would depend on the order the messages came in, which a replay of the recording does not see
   /// again (the deadband fit of a replay differed from the live run's).

@@ -12,36 +12,24 @@ namespace autocal {
 namespace ros_layer {
 
 StageNodeOptions readStageNodeOptions(const ParamReader& p, const ros::NodeHandle& nh,
-                                      double min_control_rate_hz, bool with_after_stage) {
+                                      double min_control_rate_hz) {
   StageNodeOptions o;
-  std::string& veh = o.veh;
-  std::string& calibration_root = o.calibration_root;
-  double &control_rate_hz = o.control_rate_hz, &connect_wait_s = o.connect_wait_s,
-         &status_rate_hz = o.status_rate_hz, &after_stage_wait_s = o.after_stage_wait_s;
-  std::string& after_stage = o.after_stage;
-  veh = defaultVeh(nh);
-  p.get("veh", veh);
-  p.get("calibration_root", calibration_root);
+  o.veh = defaultVeh(nh);
+  p.get("veh", o.veh);
+  p.get("calibration_root", o.calibration_root);
   p.get("resume", o.resume);
-  p.get("control_rate_hz", control_rate_hz);
-  p.get("connect_wait_s", connect_wait_s);
-  p.get("status_rate_hz", status_rate_hz);
-  if (with_after_stage) {
-    p.get("after_stage", after_stage);
-    p.get("after_stage_wait_s", after_stage_wait_s);
-  }
-  checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
+  p.get("control_rate_hz", o.control_rate_hz);
+  p.get("connect_wait_s", o.connect_wait_s);
+  p.get("status_rate_hz", o.status_rate_hz);
+  checkParam(!o.veh.empty() && o.veh.find('/') == std::string::npos, "veh",
              "must be a non-empty name without '/' (the robot's name names the files)");
-  checkCalibrationRoot(calibration_root);
-  checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= min_control_rate_hz,
+  checkCalibrationRoot(o.calibration_root);
+  checkParam(std::isfinite(o.control_rate_hz) && o.control_rate_hz >= min_control_rate_hz,
              "control_rate_hz", "must be >= " + formatNumber(min_control_rate_hz, 3) + " Hz");
-  checkParam(std::isfinite(connect_wait_s) && connect_wait_s >= 0, "connect_wait_s",
+  checkParam(std::isfinite(o.connect_wait_s) && o.connect_wait_s >= 0, "connect_wait_s",
              "must be >= 0");
-  checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz", "must be > 0");
-  checkParam(after_stage.empty() || after_stage == "camera" || after_stage == "wheels",
-             "after_stage", "must be empty, camera or wheels, got '" + after_stage + "'");
-  checkParam(std::isfinite(after_stage_wait_s) && after_stage_wait_s >= 0, "after_stage_wait_s",
-             "must be >= 0 [s]");
+  checkParam(std::isfinite(o.status_rate_hz) && o.status_rate_hz > 0, "status_rate_hz",
+             "must be > 0");
   return o;
 }
 

@@ -39,10 +39,11 @@ struct StageNodeOptions {
   double after_stage_wait_s = 0;
 };
 
-/// Reads the keys of StageNodeOptions that are set (after_stage and after_stage_wait_s only when
-/// `with_after_stage`) and validates them; ConfigError names the first bad key.
+/// Reads the keys of StageNodeOptions that are set, all but after_stage and after_stage_wait_s (a
+/// node that waits for a stage before it reads those), and validates them; ConfigError names the
+/// first bad key.
 StageNodeOptions readStageNodeOptions(const ParamReader& p, const ros::NodeHandle& nh,
-                                      double min_control_rate_hz, bool with_after_stage);
+                                      double min_control_rate_hz);
 
 /// What the node's stage takes, fixed when the node is built.
 struct StageInputs {
@@ -66,6 +67,8 @@ class StageNode {
   using Factory = std::function<std::unique_ptr<Stage>(int ticks_per_revolution)>;
   /// Hooks for what one node alone does; each may be empty.
   struct Hooks {
+    /// The node's own inputs have publishers too (camera_info), beside the stage's.
+    std::function<bool()> inputs_connected;
     /// After the inputs connected, before the stage is built (a wait for camera_info).
     std::function<void()> before_build;
     /// Every control step while the stage runs (a file polled).

@@ -91,7 +91,8 @@ target_sources(autocal_odometry PRIVATE src/core/odometry/umbmark_run.cpp)
 if(CATKIN_ENABLE_TESTING)
   add_library(autocal_odometry_test_support STATIC test/support/odometry_in_sim.cpp)
   target_include_directories(autocal_odometry_test_support PUBLIC test)
-  target_link_libraries(autocal_odometry_test_support PUBLIC autocal_core autocal_sim_core)
+  target_link_libraries(autocal_odometry_test_support PUBLIC autocal_test_support autocal_core
+    autocal_sim_core)
   target_compile_definitions(autocal_odometry_test_support PRIVATE
     AUTOCAL_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
   autocal_core_gtest(test_umbmark_run_in_sim SOURCES test/odometry/test_umbmark_run_in_sim.cpp

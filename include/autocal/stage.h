@@ -65,6 +65,10 @@ class Stage {
                         const std::string& /*source*/) {
     return false;
   }
+  /// Replays of a recording: the command the recorded robot was given at `stamp_s`, and each
+  /// status phase of the recorded stage ("camera/collect"). A live stage ignores them.
+  virtual void addRecordedCommand(double /*stamp_s*/, const WheelDuties& /*duties*/) {}
+  virtual void addRecordedPhase(double /*stamp_s*/, const std::string& /*phase*/) {}
   /// Frames or encoder readings arrived at `now_s` (before their handling took its time).
   virtual void noteFrameArrived(double /*now_s*/) {}
   virtual void noteEncodersArrived(double /*now_s*/) {}

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include "autocal/errors.h"
 #include "autocal/odometry/umbmark_run.h"
@@ -223,8 +224,9 @@ namespace {
 
 TEST(UmbmarkRunInSimErrorsAtTheEnd, GivesTheSameResultAsErrorsAfterEachSquare) {
   // The errors-file mode (~errors_file): every square driven first, pausing after each while a
-  // person marks where the robot stopped; then all the errors at once. Here they come from the
-  // truth as each square ends; the result must be what the per-square mode finds (test above).
+  // person marks where the robot stopped; then all the errors at once, from a file the run reads
+  // until it is whole. Here they come from the truth as each square ends; the result must be what
+  // the per-square mode finds (test above).
   const OdometryTestRobot r = test::odometryTestRobots().at(0);
   sim::Simulation simulation(r.robot, world("world_straight.yaml"), sim::SimulationOptions());
   odometry::UmbmarkRunOptions options =
@@ -232,6 +234,9 @@ TEST(UmbmarkRunInSimErrorsAtTheEnd, GivesTheSameResultAsErrorsAfterEachSquare) {
   options.runs_per_direction = 3;
   options.errors_after_all = true;
   options.run_pause_s = 2.0;
+  const std::string errors_file = ::testing::TempDir() + "umbmark_errors_at_the_end.yaml";
+  std::remove(errors_file.c_str());
+  options.errors_file = errors_file;
   odometry::UmbmarkRun run(options);
   std::vector<odometry::ReturnError> cw, ccw;
   Pose2D start = simulation.pose();
@@ -262,8 +267,33 @@ TEST(UmbmarkRunInSimErrorsAtTheEnd, GivesTheSameResultAsErrorsAfterEachSquare) {
   EXPECT_EQ(run.computedEnds().size(), 6u);
   EXPECT_GE(paused_s, 5 * 2.0 - 0.5) << "the robot did not pause between squares";
   EXPECT_THROW(run.setReturnErrors(cw, {}), InputError);  // counts must match the squares
-  run.setReturnErrors(cw, ccw);
-  ASSERT_TRUE(run.done()) << run.failure();
+  auto yaml = [](const std::vector<odometry::ReturnError>& errors) {
+    std::string s = "[";
+    for (const auto& e : errors)
+      s +=
+          (s.size() > 1 ? ", [" : "[") + std::to_string(e.x_m) + ", " + std::to_string(e.y_m) + "]";
+    return s + "]";
+  };
+  double t = simulation.time_s();
+  run.update(t += 1.5);  // no file yet: the run waits
+  EXPECT_FALSE(run.done());
+  EXPECT_NE(run.describe().find(errors_file), std::string::npos) << run.describe();
+  {
+    std::ofstream f(errors_file);
+    // The person has measured one counter-clockwise square so far.
+    f << "cw: " << yaml(cw) << "\nccw: " << yaml({ccw.front()}) << "\n";
+  }
+  run.update(t += 1.5);
+  EXPECT_FALSE(run.done());
+  EXPECT_NE(run.describe().find("3 cw and 1 ccw errors"), std::string::npos) << run.describe();
+  {
+    std::ofstream f(errors_file);
+    f << "cw: " << yaml(cw) << "\nccw: " << yaml(ccw) << "\n";
+  }
+  run.update(t += 0.5);  // read at most once a second
+  EXPECT_FALSE(run.done());
+  run.update(t += 1.0);
+  ASSERT_TRUE(run.done()) << run.failure() << " | " << run.describe();
   const double Ed = trueEd(r.robot),
                Eb = trueEb(r.robot, r.nominal_radius_m, r.nominal_wheelbase_m);
   std::printf("[errors at the end] Ed %.5f (true %.5f), Eb %.5f (true %.5f)\n", run.result().Ed, Ed,

@@ -1,13 +1,11 @@
 // See odometry_in_sim.h.
 #include "support/odometry_in_sim.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <deque>
 
-#include "autocal/errors.h"
+#include "support/stage_in_sim.h"
 
 namespace autocal {
 namespace test {
@@ -16,19 +14,16 @@ namespace {
 
 constexpr double kControlDt = 0.02;
 
-double wallSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+/// The odometry node's loop: 50 Hz, a command applied one cycle after the readings it came from,
+/// no frames, the readings at once.
+StageInSimOptions odometryLoop(double max_sim_s) {
+  StageInSimOptions o;
+  o.control_rate_hz = 1.0 / kControlDt;
+  o.max_sim_s = max_sim_s;
+  o.transport = false;
+  o.command_one_step_late = true;
+  return o;
 }
-
-/// Commands reach the wheels one control cycle after the readings they came from.
-struct DelayedDuties {
-  std::deque<WheelDuties> pending;
-  void apply(sim::Simulation& simulation, const WheelDuties& d) {
-    pending.push_back(d);
-    simulation.setDuty(pending.front().left, pending.front().right);
-    if (pending.size() > 1) pending.pop_front();
-  }
-};
 
 sim::RobotConfig variant(double radius_left, double radius_right, double wheelbase,
                          double gain_left, double gain_right, double deadband) {
@@ -78,143 +73,113 @@ void FloorBox::add(const sim::RobotConfig& robot, const Pose2D& pose) {
 
 UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions& options,
                      std::mt19937_64& rng, double max_sim_s, const UahSensorHooks& hooks) {
-  const auto wall0 = std::chrono::steady_clock::now();
   const sim::RobotConfig& robot = simulation.robot();
   const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
   const bool trace_straight = std::getenv("AUTOCAL_TRACE_STRAIGHT") != nullptr;
   UahInSim out;
   odometry::UahRun run(options);
   const double t0 = simulation.time_s();
-  const double encoder_dt = 1.0 / robot.encoder_rate_hz,
-               range_dt = 1.0 / robot.range_sensor.rate_hz;
-  double next_encoder = t0, next_range = t0;
-  DelayedDuties delay;
   Pose2D run_start;
-  bool was_driving = false;
+  bool was_driving = false, driving = false;
   std::string last, status_key;
-  try {
-    while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
-      const double t = simulation.time_s();
-      if (t >= next_encoder) {
-        std::int32_t left = simulation.encoderTicks(sim::Side::kLeft);
-        std::int32_t right = simulation.encoderTicks(sim::Side::kRight);
-        if (hooks.encoders) hooks.encoders(t, left, right);
-        if (hooks.recording) hooks.recording->encoders.push_back({t, left, right});
-        run.addEncoders(t, left, right);
-        next_encoder += encoder_dt;
-      }
-      if (t >= next_range) {
-        double range = simulation.measureRange(rng);
-        if (hooks.range) hooks.range(t, range, rng);
-        if (hooks.recording) hooks.recording->ranges.push_back({t, range});
-        run.addRange(t, range);
-        next_range += range_dt;
-      }
-      // The straight run's true length: the axle centre's start-to-end distance (the helper that
-      // stands for the tape measure).
-      const bool driving =
-          run.experiment() == odometry::UahExperiment::kStraight && !run.needsStraightLength();
-      if (driving && !was_driving) run_start = simulation.pose();
-      was_driving = driving;
-      if (run.needsStraightLength()) {
-        const Pose2D p = simulation.pose();
-        const double length = std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m);
-        const double given = hooks.straight_length ? hooks.straight_length(length) : length;
-        if (hooks.recording) hooks.recording->lengths.push_back({t, given});
-        run.setStraightLength(given);
-        was_driving = false;
-      }
-      const WheelDuties d = run.update(t);
-      if (hooks.recording) record(*hooks.recording, run, t, d, &status_key);
-      delay.apply(simulation, d);
-      simulation.advance(kControlDt);
-      out.floor.add(robot, simulation.pose());
-      if (trace && run.describe().substr(0, 12) != last.substr(0, 12)) {
-        const Pose2D p = simulation.pose();
-        std::fprintf(stderr, "t %.1f pose (%.3f, %.3f, %.1f deg): %s\n", t, p.x_m, p.y_m,
-                     p.yaw_rad * 180 / M_PI, run.describe().c_str());
-      }
-      if (trace) last = run.describe();
-      if (trace_straight && driving &&
-          (std::getenv("AUTOCAL_TRACE_ALL") || std::fmod(t, 0.25) < kControlDt / 2)) {
-        const Pose2D p = simulation.pose();
-        std::fprintf(stderr, "  t %.2f (%.3f, %.3f, %.2f deg) duties %.3f %.3f ticks %d %d\n", t,
-                     p.x_m, p.y_m, p.yaw_rad * 180 / M_PI, d.left, d.right,
-                     simulation.encoderTicks(sim::Side::kLeft),
-                     simulation.encoderTicks(sim::Side::kRight));
-      }
+  StageInSimOptions o = odometryLoop(max_sim_s);
+  o.range_rng = &rng;
+  o.encoders = [&](double t, std::int32_t& left, std::int32_t& right) {
+    if (hooks.encoders) hooks.encoders(t, left, right);
+    if (hooks.recording) hooks.recording->encoders.push_back({t, left, right});
+  };
+  o.range = [&](double t, double& range) {
+    if (hooks.range) hooks.range(t, range, rng);
+    if (hooks.recording) hooks.recording->ranges.push_back({t, range});
+  };
+  o.before_update = [&](double t) {
+    // The straight run's true length: the axle centre's start-to-end distance (the helper that
+    // stands for the tape measure).
+    driving = run.experiment() == odometry::UahExperiment::kStraight && !run.needsStraightLength();
+    if (driving && !was_driving) run_start = simulation.pose();
+    was_driving = driving;
+    if (!run.needsStraightLength()) return;
+    const Pose2D p = simulation.pose();
+    const double length = std::hypot(p.x_m - run_start.x_m, p.y_m - run_start.y_m);
+    const double given = hooks.straight_length ? hooks.straight_length(length) : length;
+    if (hooks.recording) hooks.recording->lengths.push_back({t, given});
+    run.setStraightLength(given);
+    was_driving = false;
+  };
+  o.after_update = [&](double t, const WheelDuties& d) {
+    if (hooks.recording) record(*hooks.recording, run, t, d, &status_key);
+    if (trace_straight && driving &&
+        (std::getenv("AUTOCAL_TRACE_ALL") || std::fmod(t, 0.25) < kControlDt / 2)) {
+      const Pose2D p = simulation.pose();
+      std::fprintf(stderr, "  t %.2f (%.3f, %.3f, %.2f deg) duties %.3f %.3f ticks %d %d\n", t,
+                   p.x_m, p.y_m, p.yaw_rad * 180 / M_PI, d.left, d.right,
+                   simulation.encoderTicks(sim::Side::kLeft),
+                   simulation.encoderTicks(sim::Side::kRight));
     }
-  } catch (const Error& e) {
-    out.failure = e.what();
-  }
-  simulation.setDuty(0, 0);
+  };
+  o.after_step = [&](double t) {
+    out.floor.add(robot, simulation.pose());
+    if (trace && run.describe().substr(0, 12) != last.substr(0, 12)) {
+      const Pose2D p = simulation.pose();
+      std::fprintf(stderr, "t %.1f pose (%.3f, %.3f, %.1f deg): %s\n", t, p.x_m, p.y_m,
+                   p.yaw_rad * 180 / M_PI, run.describe().c_str());
+    }
+    if (trace) last = run.describe();
+  };
+  const StageInSim r = runStageInSim(run, simulation, robot, nullptr, o);
+  out.failure = r.failure;
   out.done = run.done();
   if (out.done) out.result = run.result();
   out.turns = run.turns();
   out.straight_runs = run.straightRuns();
   out.sim_s = simulation.time_s() - t0;
-  out.wall_s = wallSince(wall0);
+  out.wall_s = r.wall_s;
   return out;
 }
 
 UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
                              const odometry::UmbmarkRunOptions& options, double max_sim_s) {
-  const auto wall0 = std::chrono::steady_clock::now();
   const sim::RobotConfig& robot = simulation.robot();
   const bool trace = std::getenv("AUTOCAL_TRACE") != nullptr;
   UmbmarkInSim out;
   odometry::UmbmarkRun run(options);
   const double t0 = simulation.time_s();
-  const double encoder_dt = 1.0 / robot.encoder_rate_hz;
-  double next_encoder = t0;
-  DelayedDuties delay;
   Pose2D run_start = simulation.pose();
   bool was_moving = false;
-  try {
-    while (simulation.time_s() < t0 + max_sim_s && !run.done()) {
-      const double t = simulation.time_s();
-      if (t >= next_encoder) {
-        run.addEncoders(t, simulation.encoderTicks(sim::Side::kLeft),
-                        simulation.encoderTicks(sim::Side::kRight));
-        next_encoder += encoder_dt;
-      }
-      if (run.needsReturnError()) {
-        // The run's end relative to its start, in the start's frame, minus the computed end.
-        const Pose2D p = simulation.pose();
-        const double dx = p.x_m - run_start.x_m, dy = p.y_m - run_start.y_m;
-        const double c = std::cos(run_start.yaw_rad), s = std::sin(run_start.yaw_rad);
-        const Pose2D computed = run.computedPose();
-        const odometry::ReturnError e{c * dx + s * dy - computed.x_m,
-                                      -s * dx + c * dy - computed.y_m};
-        if (trace) {
-          std::fprintf(stderr, "t %.1f %s: error (%.4f, %.4f) m, computed (%.4f, %.4f)\n", t,
-                       run.describe().c_str(), e.x_m, e.y_m, computed.x_m, computed.y_m);
-        }
-        run.setReturnError(e);
-        was_moving = false;
-      }
-      const WheelDuties d = run.update(t);
-      // A run starts at its first duties; the robot still stands where the last one stopped.
-      const bool moving = run.phase() == odometry::UmbmarkPhase::kClockwise ||
-                          run.phase() == odometry::UmbmarkPhase::kCounterClockwise;
-      if (moving && !was_moving && (d.left != 0 || d.right != 0)) {
-        run_start = simulation.pose();
-        was_moving = true;
-      }
-      delay.apply(simulation, d);
-      simulation.advance(kControlDt);
-      out.floor.add(robot, simulation.pose());
+  StageInSimOptions o = odometryLoop(max_sim_s);
+  o.before_update = [&](double t) {
+    if (!run.needsReturnError()) return;
+    // The run's end relative to its start, in the start's frame, minus the computed end.
+    const Pose2D p = simulation.pose();
+    const double dx = p.x_m - run_start.x_m, dy = p.y_m - run_start.y_m;
+    const double c = std::cos(run_start.yaw_rad), s = std::sin(run_start.yaw_rad);
+    const Pose2D computed = run.computedPose();
+    const odometry::ReturnError e{c * dx + s * dy - computed.x_m, -s * dx + c * dy - computed.y_m};
+    if (trace) {
+      std::fprintf(stderr, "t %.1f %s: error (%.4f, %.4f) m, computed (%.4f, %.4f)\n", t,
+                   run.describe().c_str(), e.x_m, e.y_m, computed.x_m, computed.y_m);
     }
-  } catch (const Error& e) {
-    out.failure = e.what();
-  }
-  simulation.setDuty(0, 0);
+    run.setReturnError(e);
+    was_moving = false;
+  };
+  o.after_update = [&](double, const WheelDuties& d) {
+    // A run starts at its first duties; the robot still stands where the last one stopped.
+    const bool moving = run.phase() == odometry::UmbmarkPhase::kClockwise ||
+                        run.phase() == odometry::UmbmarkPhase::kCounterClockwise;
+    if (moving && !was_moving && (d.left != 0 || d.right != 0)) {
+      run_start = simulation.pose();
+      was_moving = true;
+    }
+  };
+  o.after_step = [&](double) { out.floor.add(robot, simulation.pose()); };
+  const StageInSim r = runStageInSim(run, simulation, robot, nullptr, o);
+  out.failure = r.failure;
   out.done = run.done();
   if (out.done) out.result = run.result();
   out.cw = run.clockwiseErrors();
   out.ccw = run.counterClockwiseErrors();
   out.sim_s = simulation.time_s() - t0;
-  out.wall_s = wallSince(wall0);
+  out.wall_s = r.wall_s;
   return out;
 }
 

@@ -9,19 +9,18 @@
 
 #include "autocal/camera/sweep_run.h"
 #include "autocal/sim/config.h"
-#include "support/recording_tap.h"
+#include "support/stage_in_sim.h"
 
 namespace autocal {
 namespace test {
 
-struct SweepInSimOptions {
-  double control_rate_hz = 100.0;  ///< how often the run is updated (a node's timer)
-  double max_sim_s = 400.0;        ///< give up (a bug, not a calibration failure)
-  uint64_t seed = 1;
-  int max_blur_samples = 8;
+/// The loop's options (no links: frames and readings at once), and a trace.
+struct SweepInSimOptions : StageInSimOptions {
+  SweepInSimOptions() {
+    max_sim_s = 400.0;
+    transport = false;
+  }
   bool trace = false;  ///< one stderr line per processed frame (boards, decision, state)
-  /// Gets what a recording would hold (not owned; null: none).
-  RecordingTap* tap = nullptr;
 };
 
 struct SweepInSim {

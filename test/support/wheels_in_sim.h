@@ -9,19 +9,14 @@
 #include "autocal/sim/config.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal/wheels/wheel_run.h"
-#include "support/recording_tap.h"
+#include "support/stage_in_sim.h"
 
 namespace autocal {
 namespace test {
 
-struct WheelsInSimOptions {
-  double control_rate_hz = 100.0;
-  double max_sim_s = 300.0;
-  uint64_t seed = 1;
-  int max_blur_samples = 8;
+/// The loop's options (through the robot's links), and a trace.
+struct WheelsInSimOptions : StageInSimOptions {
   bool trace = false;  ///< one stderr line per stage change and iteration
-  /// Gets what a recording would hold (not owned; null: none).
-  RecordingTap* tap = nullptr;
 };
 
 struct WheelsInSim {
@@ -38,8 +33,8 @@ struct WheelsInSim {
 WheelsInSim runWheelsInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,
                            wheels::WheelRun& run, const WheelsInSimOptions& options);
 
-/// The wheel stage's targets on the simulator's truth: sim::straightDriftM at 0.15, 0.25 and 0.4 m/s,
-/// at most 2 cm at 0.25 (the calibration's speed) and 3 cm at the others. The trim alone is no
+/// The wheel stage's targets on the simulator's truth: sim::straightDriftM at 0.15, 0.25 and 0.4
+/// m/s, at most 2 cm at 0.25 (the calibration's speed) and 3 cm at the others. The trim alone is no
 /// measure when the deadbands are compensated: a trim and offsets that differ together by a few
 /// thousandths command the same duties.
 struct StraightDrift {

@@ -4,6 +4,7 @@
 // so that a result can be audited and recomputed.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -21,6 +22,19 @@ std::string cameraIntrinsicsPath(const std::string& calibration_root, const std:
 
 /// A calibration's DONE figures: fx, fy, cx, cy, k1, k2, rms_px, views.
 Figures calibrationFigures(const CalibrationResult& result);
+
+/// The text of a camera_info YAML file for `intrinsics` named `camera_name` (the nodes give
+/// camera_calibration_parsers' writer: the file must read back in ROS as Duckietown's does).
+using CameraInfoFormat =
+    std::function<std::string(const CameraIntrinsics& intrinsics, const std::string& camera_name)>;
+
+/// The camera stage's file, live or replayed: writes cameraIntrinsicsPath(output) formatted by
+/// `format`, with its audit folder (writeCameraCalibration); the result's file, figures
+/// (calibrationFigures) and log line.
+StageResult writeCameraStageFile(const StageOutput& output, const CameraInfoFormat& format,
+                                 const BoardSpec& board, const CalibrationResult& result,
+                                 const std::vector<CalibrationView>& views,
+                                 const std::map<int, cv::Mat>& frames);
 
 /// `<dir>/<stem>_views` for `<dir>/<stem>.yaml`.
 std::string viewsDirFor(const std::string& yaml_path);

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <algorithm>
-
 #include <string>
 
 #include "autocal/camera/wheel_turn.h"

@@ -10,34 +10,55 @@
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 
 #include "autocal/camera/calibration.h"
+#include "autocal/camera/calibration_files.h"
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_run.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 
 namespace autocal {
 namespace camera {
 
-class SweepReplay {
+class SweepReplay : public Stage {
  public:
   /// Throws ConfigError for invalid options or config.
   SweepReplay(const SweepRunOptions& options, const CameraCalibrationConfig& camera);
 
   /// The command the robot was given at `stamp_s` (repeats are fine).
   void addCommand(double stamp_s, const WheelDuties& duties);
-  /// Cumulative ticks of both wheels.
-  void addEncoders(double stamp_s, int left_ticks, int right_ticks);
+  /// Cumulative ticks of both wheels (the resolution and the arrival are not used).
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution = 0,
+                   double now_s = 0) override;
   /// Whether the recorded run was collecting views from `stamp_s` on (its phase camera/collect).
   /// The start of collecting counts as a stop (SweepRun settles before its first frame).
   void setCollecting(double stamp_s, bool collecting);
   bool collecting() const { return collecting_; }
   /// The first frame after the robot settled in a stop while collecting.
-  bool wantsFrame(double stamp_s) const;
+  bool wantsFrame(double stamp_s) const override;
   /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted.
-  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source);
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
+  /// Stage input: addCommand, and setCollecting while the phase is camera/collect.
+  void addRecordedCommand(double stamp_s, const WheelDuties& duties) override {
+    addCommand(stamp_s, duties);
+  }
+  void addRecordedPhase(double stamp_s, const std::string& phase) override {
+    setCollecting(stamp_s, phase == "camera/collect");
+  }
+  /// Commands nothing; never done by itself (the recorded stage's end ends it).
+  WheelDuties update(double /*now_s*/) override { return {}; }
+  bool done() const override { return false; }
+  /// Step "replay": stops and views.
+  StageStatus status() const override;
+  std::string finishStep() const override { return "calibrate"; }
+  void setCameraInfoFormat(CameraInfoFormat format) { camera_info_format_ = std::move(format); }
+  /// Calibrates (calibrate()) and writes the intrinsics file with its audit folder as SweepRun
+  /// does; needs setCameraInfoFormat.
+  StageResult finish(const StageOutput& output) override;
 
   /// Calibrates and gates the views (calibrateSweepViews); throws CalibrationError.
   CalibrationResult calibrate() const { return calibrateSweepViews(collector_, camera_); }
@@ -57,6 +78,7 @@ class SweepReplay {
  private:
   SweepRunOptions options_;
   CameraCalibrationConfig camera_;
+  CameraInfoFormat camera_info_format_;
   ViewCollector collector_;
   bool collecting_ = false;
   bool moving_ = false;

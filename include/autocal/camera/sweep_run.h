@@ -12,13 +12,13 @@
 
 #include <array>
 #include <cmath>
-#include <functional>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
 #include "autocal/camera/calibration.h"
+#include "autocal/camera/calibration_files.h"
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/min_duty_probe.h"
 #include "autocal/camera/sweep_controller.h"
@@ -154,10 +154,7 @@ class SweepRun : public Stage {
   StageStatus status() const override;
   std::string finishStep() const override { return "calibrate"; }
 
-  /// The text of a camera_info YAML file for `intrinsics` named `camera_name` (the node gives
-  /// camera_calibration_parsers' writer: the file must read back in ROS as Duckietown's does).
-  using CameraInfoFormat =
-      std::function<std::string(const CameraIntrinsics& intrinsics, const std::string& name)>;
+  /// How the intrinsics file is formatted (calibration_files.h).
   void setCameraInfoFormat(CameraInfoFormat format) { camera_info_format_ = std::move(format); }
   /// Calibrates (calibrate()) and writes <calibration_root>/camera_intrinsic/<veh>.yaml with its
   /// audit folder; needs setCameraInfoFormat.

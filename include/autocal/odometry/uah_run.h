@@ -129,12 +129,11 @@ class UahRun : public Stage {
 
   /// Cumulative ticks (wrapping 32-bit counts are unwrapped). Throws CalibrationError on a reset or
   /// jump. Stamps going back are dropped.
-  void addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
+  /// The resolution is the nominal's (ticks_per_revolution and now_s are not used).
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution = 0,
+                   double now_s = 0) override;
   /// A range reading (REP 117: ±inf, NaN, out of range are dropouts).
   void addRange(double stamp_s, double range_m) override;
-  /// Stage input: addEncoders above (the resolution is the nominal's).
-  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
-                   double now_s) override;
   /// Whether the run waits for the true length of the straight run just driven.
   bool needsStraightLength() const { return awaiting_length_; }
   /// The true start-to-end length of that run [m]. Throws InputError when none is awaited or the

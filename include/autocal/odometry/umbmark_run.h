@@ -75,6 +75,11 @@ struct UmbmarkRunOptions {
   /// for every error at once (setReturnErrors: from a file).
   bool errors_after_all = false;
   double run_pause_s = 10.0;
+  /// Errors after all squares from this YAML file (loadUmbmarkErrors' format): once every square
+  /// is driven, update() reads it every second until it holds every square's error (a person
+  /// writes it once all are measured; a half-written file is read again). Empty: the caller gives
+  /// them (setReturnErrors).
+  std::string errors_file;
   /// Where the return errors come from, recorded in the file ("~return_error", a file's path).
   std::string errors_source = "~return_error";
   /// Throws ConfigError naming the first bad key.
@@ -94,10 +99,9 @@ class UmbmarkRun : public Stage {
 
   /// Cumulative ticks (wrapping 32-bit counts are unwrapped). Throws CalibrationError on a reset or
   /// jump. Stamps going back are dropped.
-  void addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks);
-  /// Stage input: addEncoders above (the resolution is the nominal's).
-  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
-                   double now_s) override;
+  /// The resolution is the nominal's (ticks_per_revolution and now_s are not used).
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution = 0,
+                   double now_s = 0) override;
   /// Whether the run just driven waits for its return error.
   bool needsReturnError() const { return awaiting_error_; }
   /// That run's return error ε = actual − computed [m], in its start frame (x along the first
@@ -143,6 +147,8 @@ class UmbmarkRun : public Stage {
  private:
   enum class Motion { kNone, kDrive, kTurn, kSettle, kPause };
 
+  /// Errors-file mode: reads the file when a second has passed; takes it when it is whole.
+  void readErrorsFile(double now_s);
   [[noreturn]] void fail(const std::string& why);
   void startRun(double now_s);
   void startLeg(double now_s);
@@ -179,6 +185,9 @@ class UmbmarkRun : public Stage {
   double pause_until_s_ = 0;
   std::vector<Pose2D> computed_ends_;
   double awaiting_since_s_ = 0;
+  /// Errors-file mode: when the file was last read, and why it was not taken then.
+  double errors_file_read_s_ = -1e9;
+  std::string errors_file_wait_;
   double run_start_s_ = 0;
   MotionClock motion_clock_;
   double stop_s_ = -1e9;

@@ -26,6 +26,7 @@
 #include "autocal/camera_intrinsics.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
+#include "autocal/stage.h"
 #include "autocal/wheels/motor_fit.h"
 #include "autocal/wheels/tag_heading.h"
 #include "autocal/wheels/trim_estimator.h"
@@ -48,7 +49,7 @@ struct WheelReplayResult {
   int measured = 0;  ///< stills whose frames gave a heading
 };
 
-class WheelReplay {
+class WheelReplay : public Stage {
  public:
   /// Throws ConfigError on bad options.
   explicit WheelReplay(const WheelRunOptions& options);
@@ -57,11 +58,26 @@ class WheelReplay {
   /// The command the robot was given at `stamp_s` (repeats of the same motion are fine).
   void addCommand(double stamp_s, const WheelDuties& duties);
   /// Cumulative ticks of both wheels. Throws InputError on a resolution <= 0.
-  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution);
+  void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
+                   double now_s = 0) override;
   /// A frame is wanted while the robot stands settled in a still whose heading is not measured.
-  bool wantsFrame(double stamp_s) const;
+  bool wantsFrame(double stamp_s) const override;
   /// A wanted frame (8-bit grey or colour); others are ignored. Throws InputError on a bad image.
   void addFrame(double stamp_s, const cv::Mat& image);
+  bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
+  void addRecordedCommand(double stamp_s, const WheelDuties& duties) override {
+    addCommand(stamp_s, duties);
+  }
+  /// Commands nothing; never done by itself (the recorded stage's end ends it).
+  WheelDuties update(double /*now_s*/) override { return {}; }
+  bool done() const override { return false; }
+  /// Step "replay": drives and stills.
+  StageStatus status() const override;
+  /// result(), once: the replayed iteration and fit (throws as result(), and CalibrationError when
+  /// the iteration did not converge).
+  const WheelReplayResult& finalResult();
+  /// Writes <calibration_root>/kinematics/<veh>.yaml from finalResult() (validated first).
+  StageResult finish(const StageOutput& output) override;
   /// From now on frames are detected (the kept ones at once). Throws ConfigError on bad intrinsics.
   void setIntrinsics(const CameraIntrinsics& intrinsics);
   bool hasIntrinsics() const { return detector_ != nullptr; }
@@ -130,6 +146,7 @@ class WheelReplay {
   std::vector<Frame> frames_;      // in stamp order
   EncoderTracker encoders_;
   int ticks_per_rev_ = 0;
+  std::unique_ptr<WheelReplayResult> final_;
 };
 
 }  // namespace wheels

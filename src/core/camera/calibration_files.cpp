@@ -18,6 +18,25 @@ std::string cameraIntrinsicsPath(const std::string& calibration_root, const std:
   return (std::filesystem::path(calibration_root) / "camera_intrinsic" / (veh + ".yaml")).string();
 }
 
+StageResult writeCameraStageFile(const StageOutput& output, const CameraInfoFormat& format,
+                                 const BoardSpec& board, const CalibrationResult& result,
+                                 const std::vector<CalibrationView>& views,
+                                 const std::map<int, cv::Mat>& frames) {
+  if (!format) throw ConfigError("writeCameraStageFile: no camera_info format");
+  StageResult r;
+  r.file = cameraIntrinsicsPath(output.calibration_root, output.veh);
+  writeCameraCalibration(r.file, format(result.intrinsics, output.veh), board, result, views,
+                         frames);
+  const CameraIntrinsics& in = result.intrinsics;
+  r.figures = calibrationFigures(result);
+  r.log = "fx " + formatNumber(in.fx, 6) + " fy " + formatNumber(in.fy, 6) + " cx " +
+          formatNumber(in.cx, 6) + " cy " + formatNumber(in.cy, 6) + " k1 " +
+          formatNumber(in.distortion_coefficients[0], 4) + ", RMS " +
+          formatNumber(result.rms_px, 3) + " px over " + std::to_string(result.used_views.size()) +
+          " views (" + result.fitted_terms + ")";
+  return r;
+}
+
 Figures calibrationFigures(const CalibrationResult& result) {
   const CameraIntrinsics& in = result.intrinsics;
   return {{"fx", in.fx},

@@ -5,6 +5,7 @@
 
 #include "autocal/camera/chessboard.h"
 #include "autocal/errors.h"
+#include "autocal/io/format.h"
 
 namespace autocal {
 namespace camera {
@@ -24,7 +25,8 @@ void SweepReplay::addCommand(double stamp_s, const WheelDuties& duties) {
   }
 }
 
-void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks) {
+void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                              int /*ticks_per_revolution*/, double /*now_s*/) {
   encoders_.add(stamp_s, left_ticks, right_ticks);
 }
 
@@ -62,6 +64,26 @@ std::string SweepReplay::describe() const {
   return "replaying: " + std::to_string(stops_) + " stops, " + std::to_string(c.views) +
          " views, " + std::to_string(collector_.sharpViews().size()) + " sharp" +
          (c.sufficient ? ", coverage sufficient" : "");
+}
+
+StageStatus SweepReplay::status() const {
+  StageStatus s;
+  s.step = "replay";
+  s.progress = -1;
+  s.text = describe();
+  s.figures = {{"stops", static_cast<double>(stops_)},
+               {"views", static_cast<double>(collector_.coverage().views)}};
+  return s;
+}
+
+StageResult SweepReplay::finish(const StageOutput& output) {
+  const CalibrationResult result = calibrate();  // throws when the gate refuses it
+  StageResult r = writeCameraStageFile(output, camera_info_format_, camera_.board, result,
+                                       calibrationViews(), frames_);
+  r.figures.insert(r.figures.end(),
+                   {{"stops", static_cast<double>(stops_)}, {"sweep_s", elapsedS()}});
+  r.log += ", " + std::to_string(stops_) + " stops";
+  return r;
 }
 
 }  // namespace camera

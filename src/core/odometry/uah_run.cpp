@@ -95,7 +95,8 @@ void UahRun::fail(const std::string& why) {
   throw CalibrationError(why);
 }
 
-void UahRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
+void UahRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                         int /*ticks_per_revolution*/, double /*now_s*/) {
   if (failed() || done()) return;
   const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
   if (!step.accepted || step.first) return;
@@ -590,18 +591,6 @@ std::string UahRun::describe() const {
   if (spin_ppr_ > 0) s += ", spin " + formatNumber(spin_ppr_, 6) + " pulses/round";
   if (failed()) s += ": " + failure_;
   return s;
-}
-
-}  // namespace odometry
-}  // namespace autocal
-
-namespace autocal {
-namespace odometry {
-
-void UahRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
-                         int /*ticks_per_revolution*/, double /*now_s*/) {
-  addEncoders(stamp_s, static_cast<std::int32_t>(left_ticks),
-              static_cast<std::int32_t>(right_ticks));
 }
 
 StageStatus UahRun::status() const {

@@ -65,6 +65,8 @@ void UmbmarkRunOptions::validate() const {
   checkConfig(max_duration_s >= 0, "max_duration_s", "must be >= 0 [s] (0: no limit)");
   checkConfig(error_timeout_s >= 0, "error_timeout_s", "must be >= 0 [s] (0: no limit)");
   checkConfig(run_pause_s >= 0, "run_pause_s", "must be >= 0 [s]");
+  checkConfig(errors_file.empty() || errors_after_all, "errors_file",
+              "needs errors_after_all (the file holds every square's error)");
 }
 
 UmbmarkOptions UmbmarkRunOptions::umbmark() const {
@@ -87,7 +89,8 @@ void UmbmarkRun::fail(const std::string& why) {
   throw CalibrationError(why);
 }
 
-void UmbmarkRun::addEncoders(double stamp_s, std::int32_t left_ticks, std::int32_t right_ticks) {
+void UmbmarkRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
+                             int /*ticks_per_revolution*/, double /*now_s*/) {
   if (failed() || done()) return;
   const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
   if (!step.accepted || step.first) return;
@@ -223,6 +226,26 @@ void UmbmarkRun::setReturnErrors(const std::vector<ReturnError>& cw,
   finish();
 }
 
+void UmbmarkRun::readErrorsFile(double now_s) {
+  if (now_s - errors_file_read_s_ < 1.0) return;
+  errors_file_read_s_ = now_s;
+  std::vector<ReturnError> cw, ccw;
+  try {
+    loadUmbmarkErrors(options_.errors_file, &cw, &ccw);
+  } catch (const Error& e) {
+    errors_file_wait_ = e.what();  // not written yet, or half-written: read again
+    return;
+  }
+  const size_t n = static_cast<size_t>(options_.runs_per_direction);
+  if (cw.size() != n || ccw.size() != n) {
+    errors_file_wait_ = "it holds " + std::to_string(cw.size()) + " cw and " +
+                        std::to_string(ccw.size()) + " ccw errors, waiting for " +
+                        std::to_string(n) + " of each";
+    return;
+  }
+  setReturnErrors(cw, ccw);  // a wrong error fails the run
+}
+
 void UmbmarkRun::setReturnError(const ReturnError& error) {
   if (!awaiting_error_) throw InputError("no UMBmark run is waiting for its return error");
   checkError(error, std::string(name(phase_)) + " run " + std::to_string(runInDirection()));
@@ -257,6 +280,8 @@ WheelDuties UmbmarkRun::update(double now_s) {
   if (!late.empty()) fail(late);
   if (!encoders_.valid()) return {};
   if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
+  if (awaiting_all_ && !options_.errors_file.empty()) readErrorsFile(now_s);
+  if (done()) return {};
   if (awaiting_error_ || awaiting_all_) {
     if (options_.error_timeout_s > 0 && now_s - awaiting_since_s_ > options_.error_timeout_s) {
       fail(std::string("no return error given for ") +
@@ -371,6 +396,9 @@ std::string UmbmarkRun::describe() const {
     if (awaiting_all_) {
       s += ", all " + std::to_string(2 * options_.runs_per_direction) +
            " squares driven, waiting for their return errors";
+      if (!options_.errors_file.empty())
+        s += " in " + options_.errors_file +
+             (errors_file_wait_.empty() ? "" : " (" + errors_file_wait_ + ")");
     } else if (motion_ == Motion::kPause) {
       s += " driven (computed end " + formatNumber(computedPose().x_m, 3) + ", " +
            formatNumber(computedPose().y_m, 3) + " m), pausing before the next";
@@ -394,18 +422,6 @@ std::string UmbmarkRun::describe() const {
   }
   if (failed()) s += ": " + failure_;
   return s;
-}
-
-}  // namespace odometry
-}  // namespace autocal
-
-namespace autocal {
-namespace odometry {
-
-void UmbmarkRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
-                             int /*ticks_per_revolution*/, double /*now_s*/) {
-  addEncoders(stamp_s, static_cast<std::int32_t>(left_ticks),
-              static_cast<std::int32_t>(right_ticks));
 }
 
 StageStatus UmbmarkRun::status() const {

@@ -73,7 +73,7 @@ void WheelReplay::addCommand(double stamp_s, const WheelDuties& duties) {
 }
 
 void WheelReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
-                              int ticks_per_revolution) {
+                              int ticks_per_revolution, double /*now_s*/) {
   if (ticks_per_revolution <= 0)
     throw InputError("encoder resolution must be > 0 ticks per revolution");
   if (!encoders_.add(stamp_s, left_ticks, right_ticks).accepted) return;
@@ -341,6 +341,55 @@ std::string WheelReplay::describe() const {
   return "replaying: " + std::to_string(drives()) + " drives, " + std::to_string(stills()) +
          " stills, " + std::to_string(framesKept()) + " frames kept" +
          (detector_ ? "" : " (waiting for the intrinsics)");
+}
+
+bool WheelReplay::addFrame(double stamp_s, const cv::Mat& image, const std::string& /*source*/) {
+  if (!wantsFrame(stamp_s)) return false;
+  addFrame(stamp_s, image);
+  return true;
+}
+
+StageStatus WheelReplay::status() const {
+  StageStatus s;
+  s.step = "replay";
+  s.progress = -1;
+  s.text = describe();
+  s.figures = {{"drives", static_cast<double>(drives())},
+               {"stills", static_cast<double>(stills())}};
+  return s;
+}
+
+const WheelReplayResult& WheelReplay::finalResult() {
+  if (final_) return *final_;
+  WheelReplayResult r = result();  // throws
+  if (!r.converged) {
+    throw CalibrationError("the replayed iteration did not converge (" +
+                           std::to_string(r.iterations.size()) + " updates over " +
+                           std::to_string(r.drives) + " drives): nothing written");
+  }
+  final_ = std::make_unique<WheelReplayResult>(std::move(r));
+  return *final_;
+}
+
+StageResult WheelReplay::finish(const StageOutput& output) {
+  const WheelReplayResult& result = finalResult();
+  const KinematicsParams& k = result.kinematics;
+  StageResult r;
+  r.file = kinematicsPath(output.calibration_root, output.veh);
+  writeKinematicsFile(r.file, k);  // validates first; throws on failure
+  r.figures = {{"trim", k.trim},
+               {"trim_before", options_.kinematics.trim},
+               {"k", result.iterations.back().ratio_after},
+               {"deadband_left", k.deadband_left},
+               {"deadband_right", k.deadband_right},
+               {"drives", static_cast<double>(result.iterations.size())},
+               {"last_dtheta_rad", result.iterations.back().delta_theta_rad}};
+  r.log = "replay: trim " + formatNumber(k.trim, 4) + ", deadband " +
+          formatNumber(k.deadband_left, 4) + "/" + formatNumber(k.deadband_right, 4) + ", " +
+          std::to_string(result.iterations.size()) + " updates over " +
+          std::to_string(result.drives) + " drives, " + std::to_string(result.measured) + "/" +
+          std::to_string(result.stills) + " stills measured";
+  return r;
 }
 
 }  // namespace wheels

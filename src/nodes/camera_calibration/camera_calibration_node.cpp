@@ -41,10 +41,6 @@ void CameraCalibrationNodeOptions::validate() const {
 
 namespace {
 
-/// Messages of each input that wait while the passive node is busy: rosbag play feeds a recording
-/// faster than real time, and a lost encoder reading or frame changes what the replay computes.
-constexpr uint32_t kReplayQueue = 2000;
-
 CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "camera_calibration_node");
   CameraCalibrationNodeOptions o;
@@ -181,7 +177,7 @@ void CameraCalibrationNode::waitForRecordedCameraInfo() {
     const ros::Time now = ros::Time::now();
     if (first.isZero()) first = now;
     if (!first.isZero() && (now - first).toSec() >= options_.camera_info_wait_s) break;
-    if (recording_->recordingEnded(options_.recording_end_wait_s))
+    if (node_.recording()->recordingEnded(options_.recording_end_wait_s))
       throw InputError("the recording ended before any camera_info came");
     rate.sleep();
   }
@@ -200,7 +196,6 @@ std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stage
              options_.use_camera_info_guess ? ", the fit starts from it" : "");
     const cv::Size size(info_.width, info_.height);
     node_.holdFramesToSize(size);
-    if (frames_) frames_->holdToSize(size);
   } else {
     ROS_WARN(
         "camera_calibration_node: no camera_info in %.1f s: field of view %.2f rad "
@@ -232,13 +227,7 @@ void CameraCalibrationNode::setCameraInfo(const CameraIntrinsics& intrinsics,
 }
 
 void CameraCalibrationNode::run() {
-  if (options_.passive) {
-    if (options_.stage.resume &&
-        ros_layer::resumeStage(node_.status(), options_.stage.calibration_root, options_.stage.veh,
-                               "camera"))
-      return;
-    return runPassive();
-  }
+  if (options_.passive) return runPassive();
   ros_layer::StageNode::Hooks hooks;
   hooks.inputs_connected = [this] { return info_sub_.getNumPublishers() > 0; };
   hooks.before_build = [this] { waitForCameraInfo(); };
@@ -250,91 +239,21 @@ void CameraCalibrationNode::run() {
 }
 
 void CameraCalibrationNode::runPassive() {
-  std::exception_ptr& error = *node_.error();
-  // The recording's frames, encoders, commands and statuses; the stage is built when camera_info
-  // is known, and nothing of the recording comes before rosbag play starts (replay.launch delays
-  // it). Every input keeps a long queue: rosbag play feeds faster than real time, and a lost
-  // encoder reading or frame changes what the replay computes.
-  frames_ = std::make_unique<ros_layer::FrameInput>(
-      nh_, options_.image_transport, "camera_calibration_node",
-      [this](const ros::Time& stamp) {
-        recording_->noteMessage();
-        return replay_ && replay_->wantsFrame(stamp.toSec());
-      },
-      [this](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
-        replay_->addFrame(stamp.toSec(), image, source);
-      },
-      &error, kReplayQueue);
-  encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_,
-      [this](const ros::Time& stamp, int left, int right, int) {
-        recording_->noteMessage();
-        if (replay_) replay_->addEncoders(stamp.toSec(), left, right);
-      },
-      &error, ros_layer::EncoderInput::WheelHandler(), kReplayQueue);
-  recording_ = std::make_unique<ros_layer::RecordingFollower>(
-      nh_, "camera", options_.recorded_status_topic,
-      [this](const ros::Time& stamp, const WheelDuties& d) {
-        if (replay_) replay_->addCommand(stamp.toSec(), d);
-      },
-      [this](const ros::Time& stamp, const std::string& phase) {
-        if (replay_) replay_->setCollecting(stamp.toSec(), phase == "camera/collect");
-      },
-      &error);
+  ros_layer::StageNode::Hooks hooks;
   // Camera_info comes from the recording: wait for the first (on the recording's clock, which
   // starts when rosbag play does).
-  ROS_INFO(
-      "camera_calibration_node: passive: replaying the camera stage from the recording "
-      "(recorded status on %s)",
-      recording_->statusTopic().c_str());
-  waitForRecordedCameraInfo();
-  const auto setup = stageSetup();
-  replay_ = std::make_unique<SweepReplay>(setup.second, setup.first);
-  ros::WallRate rate(options_.stage.control_rate_hz);
-  ros::WallTime last_status;
-  while (ros_layer::ok() && !recording_->stageEnded()) {
-    ros::spinOnce();
-    if (error) std::rethrow_exception(error);
-    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.stage.status_rate_hz) {
-      node_.status().running("camera/replay", 0.9 * recording_->progress(), replay_->describe(),
-                             {{"stops", static_cast<double>(replay_->stops())},
-                              {"views", static_cast<double>(replay_->collector().coverage().views)},
-                              {"frames_dropped", static_cast<double>(frames_->dropped())}});
-      last_status = ros::WallTime::now();
-    }
-    if (recording_->recordingEnded(options_.recording_end_wait_s)) {
-      throw InputError("the recording ended before its camera stage did (" + replay_->describe() +
-                       "; " +
-                       (recording_->stageStarted()
-                            ? "the stage's end is not in it)"
-                            : "no status of the camera stage on " + recording_->statusTopic() +
-                                  ": was calibration/status recorded?)"));
-    }
-    rate.sleep();
-  }
-  if (!ros_layer::ok()) return;
-  if (recording_->stageFailed())
-    ROS_WARN(
-        "camera_calibration_node: the recorded camera stage FAILED (%s); calibrating what "
-        "it saw",
-        recording_->failure().c_str());
-  node_.status().running("camera/calibrate", 0.95, replay_->describe());
-  const CalibrationResult result = replay_->calibrate();  // throws when the gate refuses it
-  const std::string path =
-      cameraIntrinsicsPath(options_.stage.calibration_root, options_.stage.veh);
-  writeCameraCalibration(path, ros_layer::cameraInfoYaml(result.intrinsics, options_.stage.veh),
-                         camera_.board, result, replay_->calibrationViews(), replay_->frames());
-  const CameraIntrinsics& in = result.intrinsics;
-  ROS_INFO(
-      "camera_calibration_node: replay: wrote %s: fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f, "
-      "RMS %.3f px over %zu views (%s), %d stops",
-      path.c_str(), in.fx, in.fy, in.cx, in.cy, in.distortion_coefficients[0], result.rms_px,
-      result.used_views.size(), result.fitted_terms.c_str(), replay_->stops());
-  Figures figures = calibrationFigures(result);
-  figures.insert(figures.end(), {{"stops", static_cast<double>(replay_->stops())},
-                                 {"sweep_s", replay_->elapsedS()},
-                                 {"frames_dropped", static_cast<double>(frames_->dropped())}});
-  node_.status().wrote("camera/write", path, figures);
+  hooks.before_build = [this] { waitForRecordedCameraInfo(); };
+  ros_layer::StageNode::ReplayOptions replay;
+  replay.recorded_status_topic = options_.recorded_status_topic;
+  replay.recording_end_wait_s = options_.recording_end_wait_s;
+  node_.replay(
+      [this](int) {
+        const auto setup = stageSetup();
+        auto stage = std::make_unique<SweepReplay>(setup.second, setup.first);
+        stage->setCameraInfoFormat(ros_layer::cameraInfoYaml);
+        return stage;
+      },
+      hooks, replay);
 }
 
 }  // namespace camera

@@ -87,11 +87,6 @@ class CameraCalibrationNode {
   ros::Subscriber info_sub_;
   bool have_info_ = false;
   sensor_msgs::CameraInfo info_;
-  // Passive:
-  std::unique_ptr<SweepReplay> replay_;
-  std::unique_ptr<ros_layer::RecordingFollower> recording_;
-  std::unique_ptr<ros_layer::FrameInput> frames_;
-  std::unique_ptr<ros_layer::EncoderInput> encoders_;
 };
 
 }  // namespace camera

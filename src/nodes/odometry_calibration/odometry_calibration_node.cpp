@@ -84,9 +84,9 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
     p.get("encoder_timeout_s", u.encoder_timeout_s);
     p.get("error_timeout_s", u.error_timeout_s);
     p.get("max_duration_s", u.max_duration_s);
-    p.get("errors_file", o.errors_file);
-    u.errors_after_all = !o.errors_file.empty();
-    if (u.errors_after_all) u.errors_source = o.errors_file;
+    p.get("errors_file", u.errors_file);
+    u.errors_after_all = !u.errors_file.empty();
+    if (u.errors_after_all) u.errors_source = u.errors_file;
     if (u.errors_after_all) p.get("run_pause_s", u.run_pause_s);
     return checked(o);
   }
@@ -144,9 +144,8 @@ std::unique_ptr<Stage> OdometryCalibrationNode::build(int ticks_per_revolution) 
   if (umbmark()) {
     UmbmarkRunOptions u = options_.umbmark;
     u.nominal = r.nominal;
-    const std::string errors = u.errors_after_all
-                                   ? "from " + options_.errors_file + " after all squares"
-                                   : "on ~return_error after each square";
+    const std::string errors = u.errors_after_all ? "from " + u.errors_file + " after all squares"
+                                                  : "on ~return_error after each square";
     ROS_INFO(
         "odometry_calibration_node: UMBmark: nominal radius %.4f m, wheelbase %.4f m, %d "
         "ticks/rev; %d squares of %.2f m each way (%s expressions), return errors %s; "
@@ -176,9 +175,7 @@ void OdometryCalibrationNode::run() {
   length_sub_ = pnh_.subscribe<std_msgs::Float64>(
       "straight_length", 5,
       [this](const std_msgs::Float64::ConstPtr& msg) { onStraightLength(msg->data); });
-  ros_layer::StageNode::Hooks hooks;
-  hooks.each_step = [this] { pollErrorsFile(); };
-  node_.run([this](int ticks_per_revolution) { return build(ticks_per_revolution); }, hooks);
+  node_.run([this](int ticks_per_revolution) { return build(ticks_per_revolution); });
 }
 
 void OdometryCalibrationNode::onReturnError(double x_m, double y_m) {
@@ -223,34 +220,6 @@ void OdometryCalibrationNode::onStraightLength(double length_m) {
       last.max_heading_deviation_rad <= options_.run.straight.max_heading_deviation_rad
           ? "accepted"
           : "rejected");
-}
-
-void OdometryCalibrationNode::pollErrorsFile() {
-  if (!umbmark_ || !umbmark_->needsAllReturnErrors()) return;
-  const ros::WallTime now = ros::WallTime::now();
-  if ((now - last_file_poll_).toSec() < 1.0) return;
-  last_file_poll_ = now;
-  // The person writes the file once every square is measured: until it reads whole with every
-  // square's error, wait (a half-written file is read again a second later).
-  std::vector<ReturnError> cw, ccw;
-  try {
-    loadUmbmarkErrors(options_.errors_file, &cw, &ccw);
-  } catch (const Error& e) {
-    ROS_WARN_THROTTLE(30, "odometry_calibration_node: waiting for the return errors in %s: %s",
-                      options_.errors_file.c_str(), e.what());
-    return;
-  }
-  const size_t n = static_cast<size_t>(options_.umbmark.runs_per_direction);
-  if (cw.size() != n || ccw.size() != n) {
-    ROS_WARN_THROTTLE(30,
-                      "odometry_calibration_node: %s holds %zu cw and %zu ccw errors, waiting "
-                      "for %zu of each",
-                      options_.errors_file.c_str(), cw.size(), ccw.size(), n);
-    return;
-  }
-  ROS_INFO("odometry_calibration_node: read %zu + %zu return errors from %s", cw.size(), ccw.size(),
-           options_.errors_file.c_str());
-  umbmark_->setReturnErrors(cw, ccw);
 }
 
 }  // namespace odometry

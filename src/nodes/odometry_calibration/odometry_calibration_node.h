@@ -52,8 +52,6 @@ struct OdometryCalibrationNodeOptions {
   UahRunOptions run;
   /// UMBmark: nominal is set at the start like run.nominal's.
   UmbmarkRunOptions umbmark;
-  /// UMBmark's return errors from this YAML file after all squares instead of ~return_error.
-  std::string errors_file;
   /// Throws ConfigError naming the first bad key.
   void validate() const;
 };
@@ -68,8 +66,6 @@ class OdometryCalibrationNode {
   std::unique_ptr<Stage> build(int ticks_per_revolution);
   void onReturnError(double x_m, double y_m);
   void onStraightLength(double length_m);
-  /// Errors-file mode: the file, once it holds every square's error.
-  void pollErrorsFile();
   bool umbmark() const { return options_.method == "umbmark"; }
 
   ros::NodeHandle pnh_;
@@ -78,7 +74,6 @@ class OdometryCalibrationNode {
   UahRun* uah_ = nullptr;          ///< the stage, when the method is uah
   UmbmarkRun* umbmark_ = nullptr;  ///< the stage, when the method is umbmark
   ros::Subscriber error_sub_, length_sub_;
-  ros::WallTime last_file_poll_;
 };
 
 }  // namespace odometry

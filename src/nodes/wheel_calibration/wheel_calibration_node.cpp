@@ -116,9 +116,6 @@ ros_layer::StageInputs stageInputs(const WheelCalibrationNodeOptions& o) {
   return in;
 }
 
-/// A paired count (EncoderPairer's, fractional where interpolated) as the stage takes it.
-int count(double ticks) { return static_cast<int>(std::lround(ticks)); }
-
 double figure(const autocal::CalibrationStatus& msg, const std::string& name) {
   for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
     if (msg.figure_names[i] == name) return msg.figure_values[i];
@@ -161,13 +158,7 @@ void WheelCalibrationNode::publishDetections(double stamp_s) {
 }
 
 void WheelCalibrationNode::run() {
-  if (options_.passive) {
-    if (options_.stage.resume &&
-        ros_layer::resumeStage(node_.status(), options_.stage.calibration_root, options_.stage.veh,
-                               "wheels"))
-      return;
-    return runPassive();
-  }
+  if (options_.passive) return runPassive();
   ros_layer::StageNode::Hooks hooks;
   hooks.after_frame = [this](double stamp_s, const cv::Mat&) { publishDetections(stamp_s); };
   hooks.after_finish = [this](StageResult&) {
@@ -241,145 +232,69 @@ void WheelCalibrationNode::onStageStatus(const autocal::CalibrationStatus::Const
   }
 }
 
-namespace {
-/// Messages of each input that wait while the passive node is busy: rosbag play feeds a recording
-/// faster than real time, and a lost encoder reading or frame changes what the replay computes.
-constexpr uint32_t kReplayQueue = 2000;
-}  // namespace
+void WheelCalibrationNode::checkReplayIntrinsics() {
+  if (!camera_failure_.empty())
+    throw CalibrationError("the camera stage failed (" + camera_failure_ +
+                           "): the wheel stage needs its intrinsics");
+  if (intrinsics_set_ || !replay_ || options_.intrinsics_file.empty()) return;
+  replay_->setIntrinsics(readIntrinsics());
+  intrinsics_set_ = true;
+  ROS_INFO("wheel_calibration_node: replay: intrinsics %s", options_.intrinsics_file.c_str());
+}
 
-void WheelCalibrationNode::runPassive() {
-  std::exception_ptr& error = *node_.error();
-  WheelRunOptions r = options_.run;
-  r.kinematics = before_;
-  ROS_INFO(
-      "wheel_calibration_node: passive: replaying the wheel stage from the recording "
-      "(recorded status on %s), kinematics %s",
-      ros::names::resolve(nh_.resolveName(options_.recorded_status_topic)).c_str(),
-      kinematics_path_.c_str());
-  if (options_.intrinsics_file.empty())
-    stage_status_sub_ =
-        nh_.subscribe("calibration/status", 20, &WheelCalibrationNode::onStageStatus, this);
-  bool intrinsics_set = false;
-  auto setIntrinsics = [&] {
-    if (intrinsics_set || !replay_ || options_.intrinsics_file.empty()) return;
-    replay_->setIntrinsics(readIntrinsics());
-    intrinsics_set = true;
-    ROS_INFO("wheel_calibration_node: replay: intrinsics %s", options_.intrinsics_file.c_str());
-  };
-  recording_ = std::make_unique<ros_layer::RecordingFollower>(
-      nh_, "wheels", options_.recorded_status_topic,
-      [this](const ros::Time& stamp, const WheelDuties& d) {
-        if (replay_) replay_->addCommand(stamp.toSec(), d);
-      },
-      [this, r](const ros::Time&, const std::string& phase) {
-        // The recorded stage begins after its wait for the camera stage: from then on its
-        // commands, encoders and frames are the wheel stage's.
-        if (!replay_ && phase != "wheels/wait") replay_ = std::make_unique<WheelReplay>(r);
-      },
-      &error);
-  frames_ = std::make_unique<ros_layer::FrameInput>(
-      nh_, options_.image_transport, "wheel_calibration_node",
-      [this](const ros::Time& stamp) {
-        recording_->noteMessage();
-        return replay_ && replay_->wantsFrame(stamp.toSec());
-      },
-      [this](const ros::Time& stamp, const cv::Mat& image, const std::string&) {
-        replay_->addFrame(stamp.toSec(), image);
-      },
-      &error, kReplayQueue);
-  encoders_ = std::make_unique<ros_layer::EncoderInput>(
-      nh_, [this](const ros::Time&, int, int, int) { recording_->noteMessage(); }, &error,
-      [this](int side, const ros::Time& stamp, std::int32_t ticks, int resolution) {
-        for (const EncoderPairer::Pair& p : pairer_.add(side, stamp.toSec(), ticks)) {
-          if (replay_)
-            replay_->addEncoders(p.stamp_s, count(p.left_ticks), count(p.right_ticks), resolution);
-        }
-      },
-      kReplayQueue);
-
-  auto describe = [&] {
-    return replay_ ? replay_->describe() : std::string("waiting for the recorded wheel stage");
-  };
-  ros::WallRate rate(options_.stage.control_rate_hz);
-  ros::WallTime last_status;
-  auto spin = [&](const std::string& phase, double progress) {
-    ros::spinOnce();
-    if (error) std::rethrow_exception(error);
-    if (!camera_failure_.empty())
-      throw CalibrationError("the camera stage failed (" + camera_failure_ +
-                             "): the wheel stage needs its intrinsics");
-    setIntrinsics();
-    if ((ros::WallTime::now() - last_status).toSec() >= 1.0 / options_.stage.status_rate_hz) {
-      node_.status().running(phase, progress, describe(),
-                             {{"drives", replay_ ? static_cast<double>(replay_->drives()) : 0.0},
-                              {"stills", replay_ ? static_cast<double>(replay_->stills()) : 0.0},
-                              {"frames_dropped", static_cast<double>(frames_->dropped())}});
-      last_status = ros::WallTime::now();
-    }
-    rate.sleep();
-  };
-  while (ros_layer::ok() && !recording_->stageEnded()) {
-    // The replay keeps pace with the recording: its progress is the recorded stage's.
-    spin("wheels/replay", 0.9 * recording_->progress());
-    if (recording_->recordingEnded(options_.recording_end_wait_s)) {
-      throw InputError("the recording ended before its wheel stage did (" + describe() +
-                       (recording_->stageStarted()
-                            ? "; the stage's end is not in it)"
-                            : "; no status of the wheel stage on " + recording_->statusTopic() +
-                                  ": was calibration/status recorded?)"));
-    }
-  }
-  if (!ros_layer::ok()) return;
-  if (!replay_)
-    throw InputError("the recorded wheel stage ended before it began: nothing to replay (" +
-                     recording_->failure() + ")");
-  if (recording_->stageFailed())
-    ROS_WARN(
-        "wheel_calibration_node: the recorded wheel stage FAILED (%s); recomputing what it "
-        "drove",
-        recording_->failure().c_str());
+void WheelCalibrationNode::finishReplay() {
+  // The replayed camera stage may still be computing the intrinsics.
+  if (!intrinsics_set_)
+    node_.status().running("wheels/wait", 0.9, "waiting for the camera stage's intrinsics");
   const ros::WallTime wait_end =
       ros::WallTime::now() + ros::WallDuration(options_.intrinsics_wait_s);
-  while (ros_layer::ok() && !intrinsics_set) {
+  ros::WallRate rate(options_.stage.control_rate_hz);
+  while (ros_layer::ok() && !intrinsics_set_) {
     if (ros::WallTime::now() > wait_end)
       throw CalibrationError("no intrinsics " + std::to_string(options_.intrinsics_wait_s) +
                              " s after the recording's wheel stage ended: the camera stage gave "
                              "no DONE on calibration/status, and no ~intrinsics_file");
-    spin("wheels/wait", 0.9);
+    ros::spinOnce();
+    if (*node_.error()) std::rethrow_exception(*node_.error());
+    checkReplayIntrinsics();
+    rate.sleep();
   }
   if (!ros_layer::ok()) return;
-  const WheelReplayResult result = replay_->result();  // throws
-  if (!result.converged) {
-    throw CalibrationError("the replayed iteration did not converge (" +
-                           std::to_string(result.iterations.size()) + " updates over " +
-                           std::to_string(result.drives) + " drives): nothing written");
-  }
   // Each update of the replayed iteration, as the live stage published them (the report's k plot).
+  const WheelReplayResult& result = replay_->finalResult();  // throws
   for (std::size_t i = 0; i < result.iterations.size(); ++i) {
     const TrimIteration& it = result.iterations[i];
-    node_.status().running("wheels/replay", 0.95, describe(),
+    node_.status().running("wheels/replay", 0.95, replay_->describe(),
                            {{"iteration", static_cast<double>(i + 1)},
                             {"k", it.ratio_after},
                             {"trim", trimFromSpeedRatio(it.ratio_after, result.kinematics.gain)},
                             {"last_dtheta_rad", it.delta_theta_rad}});
   }
-  node_.status().running("wheels/write", 0.98, describe());
-  writeKinematicsFile(kinematics_path_, result.kinematics);  // validates first; throws on failure
-  const KinematicsParams& k = result.kinematics;
-  ROS_INFO(
-      "wheel_calibration_node: replay: wrote %s: trim %.4f, deadband %.4f/%.4f, %zu updates "
-      "over %d drives, %d/%d stills measured",
-      kinematics_path_.c_str(), k.trim, k.deadband_left, k.deadband_right, result.iterations.size(),
-      result.drives, result.measured, result.stills);
-  node_.status().wrote("wheels/write", kinematics_path_,
-                       {{"trim", k.trim},
-                        {"trim_before", before_.trim},
-                        {"k", result.iterations.back().ratio_after},
-                        {"deadband_left", k.deadband_left},
-                        {"deadband_right", k.deadband_right},
-                        {"drives", static_cast<double>(result.iterations.size())},
-                        {"last_dtheta_rad", result.iterations.back().delta_theta_rad},
-                        {"frames_dropped", static_cast<double>(frames_->dropped())}});
+}
+
+void WheelCalibrationNode::runPassive() {
+  ROS_INFO("wheel_calibration_node: passive: kinematics %s", kinematics_path_.c_str());
+  if (options_.intrinsics_file.empty())
+    stage_status_sub_ =
+        nh_.subscribe("calibration/status", 20, &WheelCalibrationNode::onStageStatus, this);
+  ros_layer::StageNode::Hooks hooks;
+  hooks.each_step = [this] { checkReplayIntrinsics(); };
+  hooks.before_finish = [this] { finishReplay(); };
+  ros_layer::StageNode::ReplayOptions replay;
+  replay.recorded_status_topic = options_.recorded_status_topic;
+  replay.recording_end_wait_s = options_.recording_end_wait_s;
+  // The recorded stage begins after its wait for the camera stage: from then on its commands,
+  // encoders and frames are the wheel stage's.
+  replay.build_at_first_phase = true;
+  node_.replay(
+      [this](int) {
+        WheelRunOptions r = options_.run;
+        r.kinematics = before_;
+        auto stage = std::make_unique<WheelReplay>(r);
+        replay_ = stage.get();
+        return stage;
+      },
+      hooks, replay);
 }
 
 }  // namespace wheels

@@ -83,6 +83,11 @@ class WheelCalibrationNode {
   std::unique_ptr<Stage> build();
   void publishDetections(double stamp_s);
   void runPassive();
+  /// Passive: fails when the camera stage failed; gives the replay the intrinsics once known.
+  void checkReplayIntrinsics();
+  /// Passive, after the recorded stage ended: waits for the intrinsics, publishes the replayed
+  /// iteration's updates.
+  void finishReplay();
   /// Passive: the camera stage's DONE (or FAILED) on calibration/status.
   void onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg);
   CameraIntrinsics readIntrinsics() const;
@@ -95,16 +100,10 @@ class WheelCalibrationNode {
   WheelRun* run_ = nullptr;  ///< the stage, once built
   ros::Publisher detections_pub_;
   // Passive:
-  std::unique_ptr<WheelReplay> replay_;
-  std::unique_ptr<ros_layer::RecordingFollower> recording_;
+  WheelReplay* replay_ = nullptr;  ///< the stage, once built
+  bool intrinsics_set_ = false;
   ros::Subscriber stage_status_sub_;
   std::string camera_failure_;
-  std::unique_ptr<ros_layer::FrameInput> frames_;
-  std::unique_ptr<ros_layer::EncoderInput> encoders_;
-  /// Both wheels' counts at one stamp, from the two encoders' messages: paired as they arrive they
-  /// would depend on the order the messages came in, which a replay of the recording does not see
-  /// again (the deadband fit of a replay differed from the live run's).
-  EncoderPairer pairer_;
 };
 
 }  // namespace wheels

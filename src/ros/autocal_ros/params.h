@@ -6,11 +6,10 @@
 #include <ros/node_handle.h>
 
 #include <string>
-
-#include "autocal/physical_range.h"
 #include <vector>
 
 #include "autocal/errors.h"
+#include "autocal/physical_range.h"
 
 namespace autocal {
 namespace ros_layer {

@@ -1,14 +1,15 @@
 #include "autocal_ros/sensor_inputs.h"
 
-#include <algorithm>
-
 #include <cv_bridge/cv_bridge.h>
 
+#include <algorithm>
 #include <opencv2/imgcodecs.hpp>
 
+#include "autocal/errors.h"
 #include "autocal/io/format.h"
 #include "autocal/io/image_file.h"
 #include "autocal_ros/msg_conversion.h"
+#include "autocal_ros/node_runtime.h"
 
 namespace autocal {
 namespace ros_layer {
@@ -157,6 +158,32 @@ bool RecordingFollower::recordingEnded(double wait_s) {
   }
   const ros::WallTime since = std::max(last_message_wall_, clock_start_wall_);
   return (now - since).toSec() > wait_s;
+}
+
+bool RecordingFollower::followToEnd(double rate_hz, double end_wait_s,
+                                    const std::exception_ptr& error,
+                                    const std::function<void()>& each_step,
+                                    const std::function<std::string()>& describe) {
+  // "the wheel stage": the stage's name as a person says it.
+  const std::string noun = stage_ == "wheels" ? "wheel" : stage_;
+  ros::WallRate rate(rate_hz);
+  while (ok() && !ended_) {
+    ros::spinOnce();
+    if (error) std::rethrow_exception(error);
+    each_step();
+    if (recordingEnded(end_wait_s)) {
+      throw InputError("the recording ended before its " + noun + " stage did (" + describe() +
+                       (started_ ? "; the stage's end is not in it)"
+                                 : "; no status of the " + noun + " stage on " + status_topic_ +
+                                       ": was calibration/status recorded?)"));
+    }
+    rate.sleep();
+  }
+  if (!ok()) return false;
+  if (failed_)
+    ROS_WARN("%s: the recorded %s stage FAILED (%s); recomputing what it did",
+             ros::this_node::getName().c_str(), noun.c_str(), failure_.c_str());
+  return true;
 }
 
 }  // namespace ros_layer

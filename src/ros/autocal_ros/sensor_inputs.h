@@ -128,6 +128,15 @@ class RecordingFollower {
   bool recordingEnded(double wait_s);
   const std::string& statusTopic() const { return status_topic_; }
 
+  /// A passive node's loop: handles the callbacks at `rate_hz` [wall] until the recorded stage
+  /// ended, rethrowing what a callback kept in `error` and calling `each_step` after each batch
+  /// (the node's status, its own checks). Throws InputError when the recording ends first ("the
+  /// recording ended before its <stage> stage did (<describe()>; ...)"). Returns false when
+  /// interrupted; warns when the recorded stage FAILED (the replay recomputes what it did).
+  bool followToEnd(double rate_hz, double end_wait_s, const std::exception_ptr& error,
+                   const std::function<void()>& each_step,
+                   const std::function<std::string()>& describe);
+
  private:
   void onCommand(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
   void onStatus(const autocal::CalibrationStatus::ConstPtr& msg);

@@ -71,8 +71,10 @@ class StageNode {
     std::function<bool()> inputs_connected;
     /// After the inputs connected, before the stage is built (a wait for camera_info).
     std::function<void()> before_build;
-    /// Every control step while the stage runs (a file polled).
+    /// Replay: after every batch of the recording's messages (a check of the node's own).
     std::function<void()> each_step;
+    /// Replay: after the recorded stage ended, before finish() (the node's last inputs).
+    std::function<void()> before_finish;
     /// After the stage took a frame.
     std::function<void(double stamp_s, const cv::Mat& gray)> after_frame;
     /// After the file is written, before DONE (a service told); may add to the result.
@@ -82,6 +84,28 @@ class StageNode {
   /// Resume, wait for the stage before, connect, build, drive until done, stop the wheels, finish
   /// and publish DONE. Returns early (no DONE) when interrupted; throws on failure.
   void run(const Factory& factory, const Hooks& hooks = {});
+
+  /// ~resume: true when the last run's result of this stage is kept (its DONE published again),
+  /// so that the stage need not run (resumeStage). run() asks it first.
+  bool resumed();
+  /// How a passive node follows a recording played with `rosbag play --clock` (replay.launch).
+  struct ReplayOptions {
+    /// Where the recording's calibration/status is played (replay.launch remaps it).
+    std::string recorded_status_topic = "calibration/recorded_status";
+    /// The recording has ended when no message of it came for this long [wall s].
+    double recording_end_wait_s = 5.0;
+    /// Build the stage at the recorded stage's first phase other than "<stage>/wait" (what comes
+    /// before belongs to the stage before); false: at once, after before_build.
+    bool build_at_first_phase = false;
+  };
+  /// The stage recomputed from a recording (its factory builds a replay: camera::SweepReplay,
+  /// wheels::WheelReplay): the recorded inputs with long queues (rosbag play feeds faster than
+  /// real time, and a lost reading changes the result), the recorded commands and phases, no
+  /// wheels; until the recorded stage ended, then finish() and DONE as run(). Throws InputError
+  /// when the recording ends first or holds none of the stage.
+  void replay(const Factory& factory, const Hooks& hooks, const ReplayOptions& options);
+  /// The recording being followed (replay; null before).
+  RecordingFollower* recording() { return recording_.get(); }
 
   ros::NodeHandle& nh() { return nh_; }
   StatusPublisher& status() { return status_; }
@@ -100,9 +124,12 @@ class StageNode {
   bool inputsConnected() const;
 
  private:
-  void subscribe(const Hooks& hooks);
-  void build(const Factory& factory, int ticks_per_revolution);
+  void subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t encoder_queue);
+  /// `live`: the latest encoder reading is given to the new stage.
+  void build(const Factory& factory, int ticks_per_revolution, bool live);
   void publishStatus();
+  /// The stage's end: its file written, DONE published.
+  void finish(const Hooks& hooks);
 
   ros::NodeHandle nh_;
   std::string node_name_, stage_name_;
@@ -115,6 +142,7 @@ class StageNode {
   std::unique_ptr<FrameInput> frames_;
   std::unique_ptr<EncoderInput> encoders_;
   ros::Subscriber range_sub_;
+  std::unique_ptr<RecordingFollower> recording_;
   EncoderPairer pairer_;
   Arrivals arrivals_;
   CalibrationStatus after_stage_done_;

@@ -337,6 +337,24 @@ TEST(WheelRunDeadbandGuesses, MinimaWithinTheProbeStepAreAveragedOthersKept) {
   EXPECT_DOUBLE_EQ(c.right, 0.11);
 }
 
+TEST(WheelRunDeadbandGuesses, FirstGuessesComeFromTheParameterTheCameraStageOrTheFile) {
+  wheels::KinematicsParams before;
+  before.deadband_left = 0.07;
+  before.deadband_right = 0.09;
+  const auto expect = [&](double configured, double left, double right, double want_left,
+                          double want_right) {
+    const wheels::DeadbandGuesses g =
+        wheels::firstDeadbandGuesses(configured, left, right, 0.01, before);
+    EXPECT_DOUBLE_EQ(g.left, want_left) << configured << " " << left << " " << right;
+    EXPECT_DOUBLE_EQ(g.right, want_right) << configured << " " << left << " " << right;
+  };
+  expect(0.12, 0.10, 0.11, 0.12, 0.12);  // the parameter wins
+  expect(-1, 0.10, 0.11, 0.105, 0.105);  // one deadband seen twice
+  expect(-1, 0.05, 0.12, 0.05, 0.12);    // two different ones
+  expect(-1, 0.10, -1, 0.10, 0.09);      // the right one unknown: the file's
+  expect(-1, -1, -1, 0.07, 0.09);        // no camera stage: the file
+}
+
 /// The default robot made asymmetric as real ones are (a fleet of 103 Duckiebots had trims from
 /// −0.09 to +0.08, 5th..95th percentile): motor gains, wheel radii and deadbands.
 sim::RobotConfig variant(double gain_left, double gain_right, double radius_left,

@@ -184,6 +184,12 @@ struct DeadbandGuesses {
   double left = 0, right = 0;
 };
 DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, double resolution);
+/// The wheel stage's first guesses: `configured` for both wheels when it is >= 0; else the camera
+/// stage's minimum moving duties (negative: unknown) through deadbandGuesses when both are known;
+/// else each wheel's known one, or the kinematics file's offset (`before`).
+DeadbandGuesses firstDeadbandGuesses(double configured, double camera_min_duty_left,
+                                     double camera_min_duty_right, double resolution,
+                                     const KinematicsParams& before);
 
 class WheelRun : public Stage {
  public:

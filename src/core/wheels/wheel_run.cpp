@@ -219,6 +219,16 @@ DeadbandGuesses deadbandGuesses(double min_duty_left, double min_duty_right, dou
   return {min_duty_left, min_duty_right};
 }
 
+DeadbandGuesses firstDeadbandGuesses(double configured, double camera_min_duty_left,
+                                     double camera_min_duty_right, double resolution,
+                                     const KinematicsParams& before) {
+  if (configured >= 0) return {configured, configured};
+  if (camera_min_duty_left >= 0 && camera_min_duty_right >= 0)
+    return deadbandGuesses(camera_min_duty_left, camera_min_duty_right, resolution);
+  return {camera_min_duty_left >= 0 ? camera_min_duty_left : before.deadband_left,
+          camera_min_duty_right >= 0 ? camera_min_duty_right : before.deadband_right};
+}
+
 WheelDuties WheelRun::backwardDuties(const WheelDuties& forward) const {
   // The kinematics drive forward straight; a motor faster backward than forward (the fit's
   // slopes per direction) gets its duty above the deadband scaled down by as much.

@@ -187,22 +187,14 @@ std::unique_ptr<Stage> WheelCalibrationNode::build() {
   WheelRunOptions r = options_.run;
   r.kinematics = before_;
   r.intrinsics_file = options_.intrinsics_file;
-  double guess_left = options_.deadband_guess, guess_right = options_.deadband_guess;
-  if (guess_left < 0 && camera_min_duty_left >= 0 && camera_min_duty_right >= 0) {
-    const DeadbandGuesses g = deadbandGuesses(camera_min_duty_left, camera_min_duty_right,
-                                              options_.deadband_guess_resolution);
-    guess_left = g.left;
-    guess_right = g.right;
-  } else if (guess_left < 0) {
-    guess_left = camera_min_duty_left >= 0 ? camera_min_duty_left : before_.deadband_left;
-    guess_right = camera_min_duty_right >= 0 ? camera_min_duty_right : before_.deadband_right;
-  }
-  r.kinematics.deadband_left = guess_left;
-  r.kinematics.deadband_right = guess_right;
+  const DeadbandGuesses g =
+      firstDeadbandGuesses(options_.deadband_guess, camera_min_duty_left, camera_min_duty_right,
+                           options_.deadband_guess_resolution, before_);
+  r.kinematics.deadband_left = g.left;
+  r.kinematics.deadband_right = g.right;
   ROS_INFO(
       "wheel_calibration_node: intrinsics %s (fx %.1f), kinematics %s, deadband guess %.3f/%.3f",
-      options_.intrinsics_file.c_str(), intrinsics.fx, kinematics_path_.c_str(), guess_left,
-      guess_right);
+      options_.intrinsics_file.c_str(), intrinsics.fx, kinematics_path_.c_str(), g.left, g.right);
   auto run = std::make_unique<WheelRun>(r, intrinsics);
   node_.holdFramesToSize(intrinsics.imageSize());
   run_ = run.get();

@@ -50,7 +50,7 @@ struct StageInputs {
   std::string image_transport;  ///< "compressed" or "raw"; empty: no frames
   bool ranges = false;          ///< front_center_tof_driver_node/range
   bool pair_encoders = false;   ///< both wheels' counts at one instant (EncoderPairer)
-  uint32_t queue_size = 50;     ///< encoder readings waiting per wheel
+  uint32_t queue_size = 50;     ///< encoder readings waiting per wheel (a replay keeps more)
   /// > 0: the stage is built only at the first encoder reading (its resolution), waited for this
   /// long [wall s] after connecting; none is an InputError.
   double first_encoders_wait_s = 0;
@@ -107,23 +107,21 @@ class StageNode {
   /// The recording being followed (replay; null before).
   RecordingFollower* recording() { return recording_.get(); }
 
-  ros::NodeHandle& nh() { return nh_; }
   StatusPublisher& status() { return status_; }
   /// Where a callback keeps its exception for the loop to rethrow.
   std::exception_ptr* error() { return &error_; }
-  /// The stage once built (null before).
-  Stage* stage() { return stage_.get(); }
   /// The DONE of ~after_stage (empty before).
   const CalibrationStatus& afterStageDone() const { return after_stage_done_; }
-  /// Frames dropped by the frame input (0 without frames).
-  int framesDropped() const { return frames_ ? frames_->dropped() : 0; }
+  /// Frames of another size are dropped (FrameInput::holdToSize).
   void holdFramesToSize(const cv::Size& size) {
     if (frames_) frames_->holdToSize(size);
   }
-  /// The inputs have publishers.
-  bool inputsConnected() const;
 
  private:
+  /// The stage's inputs have publishers.
+  bool inputsConnected() const;
+  /// Frames dropped by the frame input (0 without frames).
+  int framesDropped() const { return frames_ ? frames_->dropped() : 0; }
   void subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t encoder_queue);
   /// `live`: the latest encoder reading is given to the new stage.
   void build(const Factory& factory, int ticks_per_revolution, bool live);

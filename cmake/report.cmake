@@ -3,6 +3,12 @@
 target_sources(autocal_report PRIVATE src/core/report/run_record.cpp src/core/report/paths.cpp
   src/core/report/gates.cpp src/core/report/sheet.cpp src/core/report/summary.cpp src/core/report/camera_view.cpp)
 
+# replay: a recorded run recomputed with no master (the replay Stages fed from a bag).
+target_sources(autocal_replay PRIVATE src/core/replay/run_replay.cpp)
+add_executable(replay src/nodes/replay/replay_main.cpp)
+target_link_libraries(replay autocal_ros)
+autocal_ros_target(replay)
+
 add_executable(run_report_node
   src/nodes/run_report/run_report_node.cpp
   src/nodes/run_report/run_report_node_main.cpp)
@@ -106,14 +112,14 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 if(CATKIN_ENABLE_TESTING)
-  # Record a simulated calibration, replay it with no robot (replay.launch), compare (replay.test).
+  # Record a simulated calibration, replay it with no robot and no master, compare (replay.test).
   add_executable(test_replay EXCLUDE_FROM_ALL test/report/test_replay.cpp)
   target_link_libraries(test_replay autocal_test_support autocal_core autocal_sim_core autocal_ros GTest::gtest)
   target_include_directories(test_replay PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
   autocal_ros_target(test_replay)
   add_dependencies(tests test_replay)
   add_rostest(test/report/replay.test
-    DEPENDENCIES test_replay run_report_node camera_calibration_node wheel_calibration_node sim_node)
+    DEPENDENCIES test_replay replay run_report_node camera_calibration_node wheel_calibration_node sim_node)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

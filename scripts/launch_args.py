@@ -1,4 +1,4 @@
-"""The argument check of the wrapper commands calibrate_sim, replay, sim_fleet and odometry_sim.
+"""The argument check of the wrapper commands calibrate_sim, sim_fleet and odometry_sim.
 
     code=$(/usr/bin/python3 launch_args.py COMMAND FILE.launch "$@") || exit
     eval "$code"

@@ -2,10 +2,8 @@
 // The UAH odometry calibration (paper 002 §2) recomputed from a bag of a run of
 // odometry_calibration_node, no robot and no master: the passive mode (odometry::replayUah). Prints
 // the result as YAML and optionally writes the odometry calibration file. doc/nodes/uah.md.
-#include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <std_msgs/Float64.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -23,6 +21,7 @@
 #include "autocal/physical_range.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/msgs.h"
+#include "autocal_ros/recording.h"
 
 namespace {
 
@@ -156,40 +155,14 @@ struct BagContents {
 };
 
 BagContents readBag(const std::string& path, const std::string& veh) {
-  struct stat st;
-  if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": no such file");
-  rosbag::Bag bag;
-  try {
-    bag.open(path, rosbag::bagmode::Read);
-  } catch (const rosbag::BagUnindexedException& e) {
-    throw InputError(path + ": the bag has no index (truncated, or its recording was killed): " +
-                     "`rosbag reindex` it first (" + e.what() + ")");
-  } catch (const rosbag::BagException& e) {
-    throw InputError(path +
-                     ": cannot open the bag (not a bag, truncated or corrupt?): " + e.what());
-  }
+  ros_layer::Recording recording(path);
   const std::string ns = "/" + veh + "/";
   const std::string left = ns + "left_wheel_encoder_node/tick",
                     right = ns + "right_wheel_encoder_node/tick",
                     range = ns + "front_center_tof_driver_node/range",
                     cmd = ns + "wheels_driver_node/wheels_cmd", status = ns + "calibration/status",
                     length = ns + "odometry_calibration_node/straight_length";
-  std::set<std::string> present;
-  std::string listing;
-  {
-    rosbag::View all(bag);
-    for (const rosbag::ConnectionInfo* c : all.getConnections()) {
-      if (present.insert(c->topic).second) listing += "\n  " + c->topic + " (" + c->datatype + ")";
-    }
-  }
-  std::string missing;
-  for (const std::string& t : {left, right, range, cmd, status}) {
-    if (!present.count(t)) missing += (missing.empty() ? "" : ", ") + t;
-  }
-  if (!missing.empty()) {
-    throw InputError(path + ": no " + missing + " in the bag (is --veh " + veh +
-                     " right?); the bag has:" + (listing.empty() ? " nothing" : listing));
-  }
+  recording.require({left, right, range, cmd, status}, veh);
   BagContents out;
   UahRecording& rec = out.recording;
   struct Tick {
@@ -197,7 +170,7 @@ BagContents readBag(const std::string& path, const std::string& veh) {
     std::int32_t ticks;
   };
   std::vector<Tick> wheel[2];  // left, right
-  rosbag::View view(bag, rosbag::TopicQuery({left, right, range, cmd, status, length}));
+  rosbag::View view(recording.bag(), rosbag::TopicQuery({left, right, range, cmd, status, length}));
   auto wrongType = [&](const rosbag::MessageInstance& m, const char* expected) {
     return InputError(path + ": " + m.getTopic() + " carries " + m.getDataType() + ", not " +
                       expected);

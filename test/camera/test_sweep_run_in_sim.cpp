@@ -136,7 +136,7 @@ TEST(SweepRunInSim, DefaultRobotAndWorld) {
   EXPECT_LE(worst, 0.3);
 }
 
-/// The passive replay fed what a recording of the live run holds, as `rosbag play` would.
+/// The replay fed what a recording of the live run holds, in the order it holds it.
 struct ReplayTap : test::RecordingTap {
   ReplayTap(const camera::SweepRunOptions& o, const camera::CameraCalibrationConfig& c)
       : replay(o, c) {}
@@ -150,8 +150,9 @@ struct ReplayTap : test::RecordingTap {
   camera::SweepReplay replay;
 };
 
-// replay.launch's camera stage: from the commands, encoders, frames and phases a recording holds,
-// the replay takes one settled frame per stop of the sweep and calibrates as the live run did:
+// The replayed camera stage (SweepReplay, as `rosrun autocal replay` runs it): from the commands,
+// encoders, frames and phases a recording holds, the replay takes one settled frame per stop of the
+// sweep and calibrates as the live run did:
 // fx, fy within 0.2 % of the live result (the bound) and near the truth.
 void expectReplayMatches(const std::string& robot_file, const std::string& world_file) {
   const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + robot_file);

@@ -221,7 +221,7 @@ const int kBadInput = toInt(ExitCode::kBadInput);
 const int kBadConfig = toInt(ExitCode::kBadConfig);
 const int kUsage = toInt(ExitCode::kUsage);
 
-void report(const char* what, const Score& s, size_t frames) {
+void printScore(const char* what, const Score& s, size_t frames) {
   std::cout << what << ": " << s.tags << " tags in " << frames << " frames, worst position error "
             << s.worst_position_m * 1000 << " mm, worst orientation error " << s.worst_angle_deg
             << " deg, worst corner error " << s.worst_corner_px << " px, worst pose-corner "
@@ -247,7 +247,7 @@ TEST_F(DetectTagsCommand, FolderOfPngsMatchesTheSimulatorsTruth) {
     per_frame_counts.insert(s.tags);
     total.add(s);
   }
-  report("png, no floor normal", total, y.size());
+  printScore("png, no floor normal", total, y.size());
   EXPECT_GE(*per_frame_counts.begin(), 1);   // every frame has a tag
   EXPECT_GE(*per_frame_counts.rbegin(), 2);  // and some several
   EXPECT_EQ(total.unknown_ids, 0);
@@ -272,7 +272,7 @@ TEST_F(DetectTagsCommand, FloorNormalGivesTheSamePoses) {
   ASSERT_EQ(y.size(), poses.size());
   Score total;
   for (const YAML::Node& item : y) total.add(judge(item, poses.at(item["file"].as<std::string>())));
-  report("png, floor normal", total, y.size());
+  printScore("png, floor normal", total, y.size());
   EXPECT_EQ(total.expected_missing, 0);
   EXPECT_LT(total.worst_position_m, 0.01);
   EXPECT_LT(total.worst_angle_deg, 1.0);
@@ -317,7 +317,7 @@ TEST_F(DetectTagsCommand, BagOfJpegAndRawFramesMatchesTheTruth) {
       EXPECT_NEAR(y[i]["stamp"].as<double>(), 100 + 0.5 * static_cast<double>(i), 1e-9);
       total.add(judge(y[i], (*frames_)[i].pose));
     }
-    report(topic.c_str(), total, y.size());
+    printScore(topic.c_str(), total, y.size());
     EXPECT_EQ(total.unknown_ids, 0);
     EXPECT_EQ(total.expected_missing, 0);
     EXPECT_LT(total.worst_position_m, 0.01);

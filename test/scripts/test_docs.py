@@ -261,6 +261,7 @@ FAILURE_SOURCES = [
     "src/nodes/odometry_calibration/odometry_calibration_node.cpp",
     "src/ros/autocal_ros/node_runtime.cpp", "src/ros/autocal_ros/msg_conversion.cpp",
     "src/ros/autocal_ros/stage_node.cpp", "src/ros/autocal_ros/sensor_inputs.cpp",
+    "src/core/replay/run_replay.cpp", "src/ros/autocal_ros/recording.cpp",
 ]
 # A failure's first string literal (after an optional variable and +): the text the page must hold.
 FAILURE = re.compile(r'(?:\bfail\(|failure_ =|throw (?:Calibration|Input)Error\()\s*'

@@ -143,8 +143,8 @@ class Install(unittest.TestCase):
                 self.assertIn(key, declared, "package.xml lacks <depend>%s</depend> (%s)" % (key, why))
 
     def test_one_launch_file_composes_the_stages(self):
-        # calibrate.launch composes the live stages; the simulator's run and the fleet include it
-        # (replay.launch composes the passive ones). No other file starts both driving stages.
+        # calibrate.launch composes the live stages; the simulator's run and the fleet include it.
+        # No other file starts both driving stages (a replay is `rosrun autocal replay`, no launch).
         composers = []
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):
             included = {os.path.basename(i.get("file", ""))
@@ -153,7 +153,7 @@ class Install(unittest.TestCase):
                 composers.append(os.path.basename(launch))
             if os.path.basename(launch) in ("calibrate_sim.launch", "fleet_robot.launch"):
                 self.assertIn("calibrate.launch", included, launch)
-        self.assertEqual(composers, ["calibrate.launch", "replay.launch"])
+        self.assertEqual(composers, ["calibrate.launch"])
 
     def test_launch_files_and_the_files_they_find_are_installed(self):
         for launch in sorted(glob.glob(os.path.join(PKG, "launch", "*.launch"))):

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The wrapper commands' argument check (scripts/launch_args.py), without ROS and without a build.
 
-Runs scripts/calibrate_sim, replay, sim_fleet and odometry_sim by path with a fake `roslaunch`
+Runs scripts/calibrate_sim, sim_fleet and odometry_sim by path with a fake `roslaunch`
 first on PATH: it records its argv and, from its own cwd $ROS_HOME as the real nodes, writes the
 files the wrapper judges the run by (summary.yaml result: success, or odometry/VEH.yaml). Checks
 that a typo'd or malformed argument is refused with status 64 naming it and the nearest valid name
@@ -29,8 +29,8 @@ import xml.etree.ElementTree as ET
 PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
 SCRIPTS = os.path.join(PKG, "scripts")
 LAUNCH = os.path.join(PKG, "launch")
-WRAPPERS = {"calibrate_sim": "calibrate_sim.launch", "replay": "replay.launch",
-            "sim_fleet": "sim_fleet.launch", "odometry_sim": "odometry_sim.launch"}
+WRAPPERS = {"calibrate_sim": "calibrate_sim.launch", "sim_fleet": "sim_fleet.launch",
+            "odometry_sim": "odometry_sim.launch"}
 
 FAKE_ROSLAUNCH = r'''#!/usr/bin/python3
 import json, os, sys
@@ -38,8 +38,7 @@ with open(os.environ["FAKE_ROSLAUNCH_LOG"], "a") as log:
     log.write(json.dumps(sys.argv[1:]) + "\n")
 launch = sys.argv[2]
 args = dict(a.split(":=", 1) for a in sys.argv[3:] if ":=" in a)
-default = {"replay.launch": "replay_calibrations"}.get(launch, "calibrations")
-root = args.get("calibration_root", os.path.join(os.environ["PWD"], default))
+root = args.get("calibration_root", os.path.join(os.environ["PWD"], "calibrations"))
 os.chdir(os.environ["ROS_HOME"])  # the nodes' cwd: a relative path lands here
 result = os.environ.get("FAKE_RESULT", "success")
 
@@ -105,7 +104,6 @@ class WrapperTest(unittest.TestCase):
 
     def test_typo_refused_with_nearest(self):
         cases = [("calibrate_sim", "calibraton_root:=/data/x", "calibration_root"),
-                 ("replay", "calibraton_root:=/data/x", "calibration_root"),
                  ("sim_fleet", "robot_cofigs:=a.yaml,b.yaml", "robot_configs"),
                  ("odometry_sim", "wheel_radius:=0.03", "wheel_radius_m")]
         for wrapper, arg, nearest in cases:
@@ -161,16 +159,6 @@ class WrapperTest(unittest.TestCase):
                                 result="the camera died")
         self.assertEqual(proc.returncode, 1, proc.stdout + proc.stderr)
         self.assertIn("FAILED: the camera died", proc.stderr)
-
-    def test_replay_relative_bag(self):
-        proc = self.run_wrapper("replay", "bag:=cal/autobot.bag", "veh:=autobot",
-                                "calibration_root:=out")
-        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
-        self.assertEqual(self.launched_args(), [
-            "autocal", "replay.launch", "bag:=%s/cal/autobot.bag" % self.cwd, "veh:=autobot",
-            "calibration_root:=%s/out" % self.cwd])
-        self.assertIn("replay: the run succeeded; report in %s/out/report/autobot" % self.cwd,
-                      proc.stdout)
 
     def test_sim_fleet_relative_paths(self):
         proc = self.run_wrapper("sim_fleet", "n:=3", "calibration_root:=fleet",

@@ -1,7 +1,7 @@
 // What a recording of a stage run in the simulator's core would hold, handed over as it happens:
 // the commands the run gave, the encoder readings, the frames (rendered only when someone wants
-// them) and the run's phase (what its status would say). The replay tests feed a passive replay
-// from it beside the live run, as `rosbag play` would.
+// them) and the run's phase (what its status would say). The replay tests feed a replay Stage
+// from it beside the live run, as `rosrun autocal replay` feeds it a bag.
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -46,7 +46,7 @@ struct Outcome {
   std::vector<std::pair<double, double>> drift_m;  // speed, drift
 };
 
-/// The passive replay fed what a recording of the live run holds, as `rosbag play` would; the
+/// The replay fed what a recording of the live run holds, in the order it holds it; the
 /// intrinsics come `intrinsics_at_s` into it (the replayed camera stage computes them meanwhile).
 struct ReplayTap : test::RecordingTap {
   ReplayTap(const wheels::WheelRunOptions& o, const CameraIntrinsics& in, double at_s)
@@ -418,10 +418,10 @@ TEST(WheelRunInSim, RealRobotLateMessagesStaticFrictionLostFrames) {
                    defaultWorld(), trim.max_iterations + trim.more_drives_for_mean);
 }
 
-// The passive replay (replay.launch's wheel stage) recomputes the live run from what a recording
-// holds: the same trim within 0.002 and deadbands within 0.003, and so drives
-// as straight by the truth; the intrinsics come 15 s into the recording, the frames wanted before
-// are kept and detected then.
+// The replay of the wheel stage (WheelReplay, as `rosrun autocal replay` runs it) recomputes the
+// live run from what a recording holds: the same trim within 0.002 and deadbands within 0.003, and
+// so drives as straight by the truth; the intrinsics come 15 s into the recording, the frames
+// wanted before are kept and detected then.
 /// The replay starts from the default kinematics, as the node's replay does (it does not see the
 /// live run's deadband guesses; it reads them off the first drive's duties).
 void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess,

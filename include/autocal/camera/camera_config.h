@@ -25,6 +25,14 @@ struct CameraCalibrationConfig {
 /// Reads the config file; unknown keys and bad values are ConfigErrors naming file, line and key.
 CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path);
 
+/// The camera stage's config as a robot runs it: the file at `path`, with the board's inner corners
+/// ("7x5"; empty: the file's) and square size [m] (0: the file's) given, and the half-resolution
+/// precheck off (the robot's boards are small in its image: it misses a third of them,
+/// BENCHMARKS.md, and a frame is grabbed only once per step). Throws ConfigError.
+CameraCalibrationConfig loadStageCameraConfig(const std::string& path,
+                                              const std::string& board_inner_corners,
+                                              double board_square_m);
+
 /// Parses "9x6" (inner corners, columns x rows); throws ConfigError otherwise.
 cv::Size parseBoardSize(const std::string& text);
 

@@ -9,6 +9,7 @@
 
 #include <map>
 #include <opencv2/core.hpp>
+#include <set>
 #include <string>
 #include <utility>
 
@@ -38,8 +39,12 @@ class SweepReplay : public Stage {
   /// The start of collecting counts as a stop (SweepRun settles before its first frame).
   void setCollecting(double stamp_s, bool collecting);
   bool collecting() const { return collecting_; }
-  /// The first frame after the robot settled in a stop while collecting.
+  /// The first frame after the robot settled in a stop while collecting; with setFramesUsed, the
+  /// frames the live stage took while collecting.
   bool wantsFrame(double stamp_s) const override;
+  /// The stamps of the frames the live stage took (its node records them): the replay takes the
+  /// same frames rather than judging by its own rule where a loaded live node skipped one.
+  void setFramesUsed(std::set<double> stamps_s) { frames_used_ = std::move(stamps_s); }
   /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted.
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
   /// Stage input: addCommand, and setCollecting while the phase is camera/collect.
@@ -77,6 +82,7 @@ class SweepReplay : public Stage {
 
  private:
   SweepRunOptions options_;
+  std::set<double> frames_used_;
   CameraCalibrationConfig camera_;
   CameraInfoFormat camera_info_format_;
   ViewCollector collector_;

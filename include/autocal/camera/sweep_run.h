@@ -84,6 +84,11 @@ CameraCalibrationConfig sweepCameraConfig(CameraCalibrationConfig camera,
 CalibrationResult calibrateSweepViews(const ViewCollector& collector,
                                       const CameraCalibrationConfig& camera);
 
+/// The robot's nominal camera (its camera_info) in the stage's setup: the sweep's field of view,
+/// and with `as_guess` the fit's starting camera matrix.
+void useNominalCamera(const CameraIntrinsics& nominal, bool as_guess,
+                      CameraCalibrationConfig& camera, SweepRunOptions& run);
+
 enum class SweepRunStage { kWaitForData, kProbe, kSweep, kSwept, kFailed };
 const char* name(SweepRunStage stage);  ///< "wait", "probe", "collect", "calibrate", "failed"
 

@@ -67,7 +67,7 @@ struct RunRecord {
   /// The simulator's true poses (its world frame), when one published them; empty on a robot.
   std::vector<std::pair<double, Pose2D>> true_poses;
   int ticks_per_revolution = 0;
-  /// The recording this run replays (replay.launch); empty for a live run.
+  /// The recording this run replays (`rosrun autocal replay`); empty for a live run.
   std::string replay_of;
   /// Set by RunRecorder::markStageDead and markInterrupted: why the run ended without its stages'
   /// DONE or FAILED.

@@ -36,5 +36,13 @@ ReportFiles writeReport(const std::string& dir, const RunRecord& record,
                         const std::string& views_yaml, const ReportOptions& options,
                         const std::string& ground_png = "");
 
+/// The run's report as run_report_node and the replay write it: writeReport into `report_dir`, with
+/// the believed path on the wheels the run found (<calibration_root>/kinematics/<veh>.yaml, when it
+/// reads; else `options`' and `warning` says why), the camera's audit when the camera stage is
+/// DONE, and the ground view when the wheel stage wrote the extrinsics (not an older run's).
+ReportFiles writeRunReport(const std::string& report_dir, const std::string& calibration_root,
+                           const std::string& veh, const RunRecord& record, ReportOptions options,
+                           std::string* warning = nullptr);
+
 }  // namespace report
 }  // namespace autocal

@@ -19,6 +19,7 @@
 
 #include <memory>
 #include <opencv2/core.hpp>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -60,8 +61,13 @@ class WheelReplay : public Stage {
   /// Cumulative ticks of both wheels. Throws InputError on a resolution <= 0.
   void addEncoders(double stamp_s, int left_ticks, int right_ticks, int ticks_per_revolution,
                    double now_s = 0) override;
-  /// A frame is wanted while the robot stands settled in a still whose heading is not measured.
+  /// A frame is wanted while the robot stands settled in a still whose heading is not measured;
+  /// with setFramesUsed, the frames the live stage took.
   bool wantsFrame(double stamp_s) const override;
+  /// The stamps of the frames the live stage took (its node records them): the replay measures
+  /// each still's heading from the same frames rather than judging by its own rule where a loaded
+  /// live node skipped one.
+  void setFramesUsed(std::set<double> stamps_s) { frames_used_ = std::move(stamps_s); }
   /// A wanted frame (8-bit grey or colour); others are ignored. Throws InputError on a bad image.
   void addFrame(double stamp_s, const cv::Mat& image);
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
@@ -140,6 +146,7 @@ class WheelReplay : public Stage {
   void detect(Frame& f) const;
 
   WheelRunOptions options_;
+  std::set<double> frames_used_;
   std::unique_ptr<markers::TagDetector> detector_;
   std::vector<Command> commands_;  // in stamp order
   std::vector<Reading> readings_;  // in stamp order

@@ -142,5 +142,17 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
   return c;
 }
 
+CameraCalibrationConfig loadStageCameraConfig(const std::string& path,
+                                              const std::string& board_inner_corners,
+                                              double board_square_m) {
+  CameraCalibrationConfig camera = loadCameraCalibrationConfig(path);
+  if (!board_inner_corners.empty())
+    camera.board.inner_corners = parseBoardSize(board_inner_corners);
+  if (board_square_m > 0) camera.board.square_size_m = board_square_m;
+  camera.detector.half_resolution_precheck = false;
+  camera.validate();
+  return camera;
+}
+
 }  // namespace camera
 }  // namespace autocal

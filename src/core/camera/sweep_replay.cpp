@@ -39,6 +39,7 @@ void SweepReplay::setCollecting(double stamp_s, bool collecting) {
 }
 
 bool SweepReplay::wantsFrame(double stamp_s) const {
+  if (!frames_used_.empty()) return collecting_ && frames_used_.count(stamp_s) > 0;
   if (!collecting_ || moving_ || taken_ || !encoders_.valid()) return false;
   return SettleRule{options_.sweep.settle_s, options_.still_s, options_.sweep.max_settle_s}.settled(
       stop_s_, stamp_s, encoders_);

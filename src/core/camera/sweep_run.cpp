@@ -393,5 +393,11 @@ StageResult SweepRun::finish(const StageOutput& output) {
   return r;
 }
 
+void useNominalCamera(const CameraIntrinsics& nominal, bool as_guess,
+                      CameraCalibrationConfig& camera, SweepRunOptions& run) {
+  if (as_guess) camera.calibration.initial_camera_matrix = nominal.cameraMatrix();
+  run.sweep.camera_hfov_rad = 2 * std::atan(nominal.width / (2 * nominal.fx));
+}
+
 }  // namespace camera
 }  // namespace autocal

@@ -9,12 +9,14 @@
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/io/image_file.h"
 #include "autocal/io/yaml_reader.h"
 #include "autocal/report/paths.h"
 #include "autocal/report/sheet.h"
+#include "autocal/wheels/kinematics.h"
 
 namespace autocal {
 namespace report {
@@ -157,6 +159,32 @@ ReportFiles writeReport(const std::string& dir, const RunRecord& record,
   writePngAtomically(files.sheet_png, drawReportSheet(record, audit, options, time_utc, ground));
   writeFileAtomically(files.summary_yaml, summaryYaml(record, audit, options, time_utc));
   return files;
+}
+
+ReportFiles writeRunReport(const std::string& report_dir, const std::string& calibration_root,
+                           const std::string& veh, const RunRecord& record, ReportOptions options,
+                           std::string* warning) {
+  const std::string kin = wheels::kinematicsPath(calibration_root, veh);
+  if (fs::exists(kin)) {
+    try {
+      const wheels::KinematicsParams k = wheels::readKinematicsFile(kin);
+      options.wheel_radius_m = k.radius;
+      options.baseline_m = k.baseline;
+    } catch (const Error& e) {
+      if (warning) *warning = kin + ": " + e.what() + "; the path uses the default wheels";
+    }
+  }
+  const std::string views =
+      (fs::path(calibration_root) / "camera_intrinsic" / (veh + "_views") / "views.yaml").string();
+  const StageRecord* camera = record.stage("camera");
+  const bool camera_done = camera && camera->state == StageState::kDone;
+  const StageRecord* wheels = record.stage("wheels");
+  const bool extrinsics_written =
+      wheels && wheels->state == StageState::kDone && wheels->figure("extrinsics_written") == 1.0;
+  const std::string ground =
+      extrinsics::groundViewPath(extrinsics::extrinsicsPath(calibration_root, veh));
+  return writeReport(report_dir, record, camera_done ? views : "", options,
+                     extrinsics_written ? ground : "");
 }
 
 }  // namespace report

@@ -152,7 +152,9 @@ bool WheelReplay::undecided(double stamp_s) const {
 std::vector<const WheelReplay::Frame*> WheelReplay::framesIn(const Segment& s) const {
   std::vector<const Frame*> out;
   for (const Frame& f : frames_)
-    if (f.stamp_s >= s.start_s && f.stamp_s < s.end_s && settledAt(s, f.stamp_s)) out.push_back(&f);
+    if (f.stamp_s >= s.start_s && f.stamp_s < s.end_s &&
+        (!frames_used_.empty() || settledAt(s, f.stamp_s)))
+      out.push_back(&f);
   return out;
 }
 
@@ -175,6 +177,7 @@ bool WheelReplay::measured(const std::vector<const Frame*>& frames) const {
 }
 
 bool WheelReplay::wantsFrame(double stamp_s) const {
+  if (!frames_used_.empty()) return frames_used_.count(stamp_s) > 0;
   if (readings_.empty()) return false;
   const std::vector<Segment> all = segments();
   const Segment& s = segmentAt(all, stamp_s);

@@ -32,10 +32,6 @@ void CameraCalibrationNodeOptions::validate() const {
   ros_layer::checkLength("nominal_wheel_radius_m", run.nominal_wheel_radius_m,
                          ranges::kWheelRadius);
   ros_layer::checkLength("nominal_wheelbase_m", run.nominal_wheelbase_m, ranges::kWheelbase);
-  ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
-                        "must not be empty");
-  ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
-                        "recording_end_wait_s", "must be > 0");
   ros_layer::validateParams(run);
 }
 
@@ -53,9 +49,6 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   p.get("camera_info_wait_s", o.camera_info_wait_s);
   p.get("use_camera_info_guess", o.use_camera_info_guess);
   p.get("set_camera_info", o.set_camera_info);
-  p.get("passive", o.passive);
-  p.get("recorded_status_topic", o.recorded_status_topic);
-  p.get("recording_end_wait_s", o.recording_end_wait_s);
 
   SweepRunOptions& r = o.run;
   p.get("probe_min_duty", r.probe_min_duty);
@@ -109,15 +102,7 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
 }
 
 CameraCalibrationConfig loadCamera(const CameraCalibrationNodeOptions& o) {
-  CameraCalibrationConfig camera = loadCameraCalibrationConfig(o.camera_config);
-  if (!o.board_inner_corners.empty())
-    camera.board.inner_corners = parseBoardSize(o.board_inner_corners);
-  if (o.board_square_m > 0) camera.board.square_size_m = o.board_square_m;
-  // The robot's boards are small in its image: the half-resolution precheck misses a third of
-  // them (BENCHMARKS.md), and a frame is only grabbed once per step.
-  camera.detector.half_resolution_precheck = false;
-  camera.validate();
-  return camera;
+  return loadStageCameraConfig(o.camera_config, o.board_inner_corners, o.board_square_m);
 }
 
 ros_layer::StageInputs stageInputs(const CameraCalibrationNodeOptions& o) {
@@ -167,30 +152,12 @@ void CameraCalibrationNode::waitForCameraInfo() {
   }
 }
 
-void CameraCalibrationNode::waitForRecordedCameraInfo() {
-  // On wall time: the recording's clock starts (jumps) when rosbag play does.
-  ros::WallRate rate(options_.stage.control_rate_hz);
-  ros::Time first;
-  while (ros_layer::ok() && !have_info_) {
-    ros::spinOnce();
-    if (*node_.error()) std::rethrow_exception(*node_.error());
-    const ros::Time now = ros::Time::now();
-    if (first.isZero()) first = now;
-    if (!first.isZero() && (now - first).toSec() >= options_.camera_info_wait_s) break;
-    if (node_.recording()->recordingEnded(options_.recording_end_wait_s))
-      throw InputError("the recording ended before any camera_info came");
-    rate.sleep();
-  }
-}
-
 std::pair<CameraCalibrationConfig, SweepRunOptions> CameraCalibrationNode::stageSetup() {
   CameraCalibrationConfig camera = camera_;
   SweepRunOptions run = options_.run;
   if (have_info_) {
     const CameraIntrinsics nominal = ros_layer::fromCameraInfo(info_);
-    if (options_.use_camera_info_guess)
-      camera.calibration.initial_camera_matrix = nominal.cameraMatrix();
-    run.sweep.camera_hfov_rad = 2 * std::atan(nominal.width / (2 * nominal.fx));
+    useNominalCamera(nominal, options_.use_camera_info_guess, camera, run);
     ROS_INFO("camera_calibration_node: camera_info: %dx%d, fx %.1f: field of view %.2f rad%s",
              nominal.width, nominal.height, nominal.fx, run.sweep.camera_hfov_rad,
              options_.use_camera_info_guess ? ", the fit starts from it" : "");
@@ -227,7 +194,6 @@ void CameraCalibrationNode::setCameraInfo(const CameraIntrinsics& intrinsics,
 }
 
 void CameraCalibrationNode::run() {
-  if (options_.passive) return runPassive();
   ros_layer::StageNode::Hooks hooks;
   hooks.inputs_connected = [this] { return info_sub_.getNumPublishers() > 0; };
   hooks.before_build = [this] { waitForCameraInfo(); };
@@ -236,24 +202,6 @@ void CameraCalibrationNode::run() {
     if (options_.set_camera_info) setCameraInfo(run_->calibration().intrinsics, result.file);
   };
   node_.run([this](int) { return build(); }, hooks);
-}
-
-void CameraCalibrationNode::runPassive() {
-  ros_layer::StageNode::Hooks hooks;
-  // Camera_info comes from the recording: wait for the first (on the recording's clock, which
-  // starts when rosbag play does).
-  hooks.before_build = [this] { waitForRecordedCameraInfo(); };
-  ros_layer::StageNode::ReplayOptions replay;
-  replay.recorded_status_topic = options_.recorded_status_topic;
-  replay.recording_end_wait_s = options_.recording_end_wait_s;
-  node_.replay(
-      [this](int) {
-        const auto setup = stageSetup();
-        auto stage = std::make_unique<SweepReplay>(setup.second, setup.first);
-        stage->setCameraInfoFormat(ros_layer::cameraInfoYaml);
-        return stage;
-      },
-      hooks, replay);
 }
 
 }  // namespace camera

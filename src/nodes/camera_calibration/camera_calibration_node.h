@@ -10,13 +10,8 @@
 // wheels_driver_node/wheels_cmd, calibration/status (phase camera/<step>), and
 // ~debug/image/compressed. On success writes <calibration_root>/camera_intrinsic/<veh>.yaml and
 // its audit folder, optionally calls camera_node/set_camera_info, publishes DONE whose text is
-// "wrote <path>", and returns; every failure is an exception for runNode's failure path.
-//
-// ~passive (replay.launch): the same stage recomputed from a recording played with `rosbag play
-// --clock`. It advertises no wheels_cmd; it reads the recorded wheels_driver_node/wheels_cmd and
-// the recorded run's status on ~recorded_status_topic, takes one settled frame per stop of the
-// recorded sweep (camera::SweepReplay) and, once the recorded camera stage ended, calibrates and
-// writes as above. A recording that ends before the stage did is a failure.
+// "wrote <path>", and returns; every failure is an exception for runNode's failure path. A recorded
+// run is recomputed by `rosrun autocal replay` (doc/nodes/replay.md), with no node.
 #pragma once
 
 #include <ros/ros.h>
@@ -27,7 +22,6 @@
 #include <utility>
 
 #include "autocal/camera/camera_config.h"
-#include "autocal/camera/sweep_replay.h"
 #include "autocal/camera/sweep_run.h"
 #include "autocal_ros/sensor_inputs.h"
 #include "autocal_ros/stage_node.h"
@@ -48,12 +42,6 @@ struct CameraCalibrationNodeOptions {
   double camera_info_wait_s = 3.0;
   bool use_camera_info_guess = true;
   bool set_camera_info = false;  ///< call camera_node/set_camera_info with the result
-  /// Replay a recording instead of driving the robot (see above).
-  bool passive = false;
-  /// Passive: where the recording's calibration/status is played (replay.launch remaps it).
-  std::string recorded_status_topic = "calibration/recorded_status";
-  /// Passive: the recording has ended when the clock has not moved for this long [wall s].
-  double recording_end_wait_s = 5.0;
   SweepRunOptions run;
 
   /// Throws ConfigError naming the first bad key.
@@ -69,14 +57,12 @@ class CameraCalibrationNode {
 
  private:
   std::unique_ptr<Stage> build();
-  /// Waits up to camera_info_wait_s for camera_info (passive: in the recording, on wall time).
+  /// Waits up to camera_info_wait_s for camera_info.
   void waitForCameraInfo();
-  void waitForRecordedCameraInfo();
   /// The camera config and run options (camera_info's field of view and guess, when it came).
   std::pair<CameraCalibrationConfig, SweepRunOptions> stageSetup();
   void publishDebug(const cv::Mat& frame);
   void setCameraInfo(const CameraIntrinsics& intrinsics, const std::string& path);
-  void runPassive();
 
   ros::NodeHandle nh_, pnh_;
   CameraCalibrationNodeOptions options_;

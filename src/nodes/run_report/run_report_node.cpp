@@ -7,11 +7,9 @@
 #include <sstream>
 
 #include "autocal/errors.h"
-#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/pose2d.h"
-#include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msg_conversion.h"
 #include "autocal_ros/params.h"
 
@@ -61,13 +59,11 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("silent_warn_s", options_.silent_warn_s);
   p.get("path_rate_hz", options_.path_rate_hz);
   p.get("true_pose_topic", options_.true_pose_topic);
-  p.get("replay_of", options_.replay_of);
   options_.odom_frame = options_.veh + "/odom";
   p.get("odom_frame", options_.odom_frame);
   options_.validate();
   checkWritableFolder(options_.report_dir);  // before the run: the report is written at its end
   recorder_ = std::make_unique<RunRecorder>(options_.veh, options_.stages);  // throws ConfigError
-  recorder_->setReplayOf(options_.replay_of);
 
   status_ = ros_layer::StatusPublisher(nh_, "calibration/status");
   status_sub_ = nh_.subscribe("calibration/status", 50, &RunReportNode::onStatus, this);
@@ -115,28 +111,7 @@ void RunReportNode::onStatus(const ros::MessageEvent<autocal::CalibrationStatus 
   const autocal::CalibrationStatus& msg = *event.getMessage();
   const std::string stage = msg.phase.substr(0, msg.phase.find('/'));
   if (event.getPublisherName() == ros::this_node::getName()) return;  // our own
-  if (msg.phase == "recording/play" && msg.state == autocal::CalibrationStatus::STATE_FAILED) {
-    // A replay whose player could not play the recording (replay.launch's replay_player: rosbag
-    // play exited non-zero): no stage will speak, the run ends with the player's reason.
-    const std::string why = msg.failure_reason.empty() ? msg.text : msg.failure_reason;
-    ROS_ERROR("run_report_node: %s", why.c_str());
-    recorder_->markInterrupted(why);
-    return;
-  }
-  StatusUpdate u;
-  u.stamp_s = msg.header.stamp.toSec();
-  u.phase = msg.phase;
-  u.state = msg.state == autocal::CalibrationStatus::STATE_DONE     ? StatusUpdate::State::kDone
-            : msg.state == autocal::CalibrationStatus::STATE_FAILED ? StatusUpdate::State::kFailed
-            : msg.state == autocal::CalibrationStatus::STATE_IDLE   ? StatusUpdate::State::kIdle
-                                                                    : StatusUpdate::State::kRunning;
-  u.progress = msg.progress;
-  u.text = msg.text;
-  u.failure_reason = msg.failure_reason;
-  u.file = msg.file;
-  for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
-    u.figures.emplace_back(msg.figure_names[i], msg.figure_values[i]);
-  recorder_->addStatus(u);
+  recorder_->addStatus(ros_layer::fromStatusMsg(msg));
   stage_publisher_[stage] = event.getPublisherName();
   last_heard_[stage] = ros::Time::now();
 }
@@ -267,32 +242,12 @@ ReportFiles RunReportNode::write() {
         recorder_->keepFromLastRun(stage, p.file, p.figures);
     }
   }
-  const RunRecord& record = recorder_->record();
-  ReportOptions o = options_.report;
-  // The believed path with the wheels the run found, when it wrote them.
-  const std::string kin = wheels::kinematicsPath(options_.calibration_root, options_.veh);
-  if (fs::exists(kin)) {
-    try {
-      const wheels::KinematicsParams k = wheels::readKinematicsFile(kin);
-      o.wheel_radius_m = k.radius;
-      o.baseline_m = k.baseline;
-    } catch (const Error& e) {
-      ROS_WARN("run_report_node: %s: %s; the path uses the default wheels", kin.c_str(), e.what());
-    }
-  }
-  const std::string views = (fs::path(options_.calibration_root) / "camera_intrinsic" /
-                             (options_.veh + "_views") / "views.yaml")
-                                .string();
-  const StageRecord* camera = record.stage("camera");
-  const bool camera_done = camera && camera->state == StageState::kDone;
-  // The ground view of the extrinsics this run's wheel stage wrote (not an older run's).
-  const StageRecord* wheels = record.stage("wheels");
-  const bool extrinsics_written =
-      wheels && wheels->state == StageState::kDone && wheels->figure("extrinsics_written") == 1.0;
-  const std::string ground = extrinsics::groundViewPath(
-      extrinsics::extrinsicsPath(options_.calibration_root, options_.veh));
-  return writeReport(options_.report_dir, record, camera_done ? views : "", o,
-                     extrinsics_written ? ground : "");
+  std::string warning;
+  const ReportFiles files =
+      writeRunReport(options_.report_dir, options_.calibration_root, options_.veh,
+                     recorder_->record(), options_.report, &warning);
+  if (!warning.empty()) ROS_WARN("run_report_node: %s", warning.c_str());
+  return files;
 }
 
 void RunReportNode::run() {

@@ -8,9 +8,7 @@
 // A stage whose node dies (SIGKILL, a crash: no FAILED of its own) is noticed by pinging the node
 // that published the stage's last status; the report node then publishes FAILED for the stage in
 // its name (phase "<stage>/died"), so that a later stage waiting for it gives up, and stops the
-// wheels (the wheel driver's watchdog stops them too). A FAILED of phase "recording/play" (a
-// replay's player could not play the recording) ends the run with its reason. It never reads a
-// simulator's truth.
+// wheels (the wheel driver's watchdog stops them too). It never reads a simulator's truth.
 //
 // Subscribes (relative to the robot's namespace): calibration/status,
 // left_wheel_encoder_node/tick, right_wheel_encoder_node/tick. Publishes calibration/status
@@ -59,7 +57,6 @@ struct RunReportNodeOptions {
   /// nav_msgs/Odometry of the robot's true pose (a simulator's), drawn as the true path; empty:
   /// none.
   std::string true_pose_topic;
-  std::string replay_of;  ///< the recording replayed (replay.launch); empty: a live run
   /// The believed path's frame: where the robot started (default "<veh>/odom").
   std::string odom_frame;
   /// Throws ConfigError naming the first bad key.
@@ -89,7 +86,7 @@ class RunReportNode {
   ros_layer::StatusPublisher status_;
   ros::Subscriber status_sub_;
   ros::Subscriber sim_status_sub_;  ///< a simulator's own status (sim/status), when one runs
-  ros::Subscriber true_pose_sub_;  ///< ~true_pose_topic, when given
+  ros::Subscriber true_pose_sub_;   ///< ~true_pose_topic, when given
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   std::exception_ptr error_;
   std::map<std::string, std::string> stage_publisher_;  ///< stage → node that published it

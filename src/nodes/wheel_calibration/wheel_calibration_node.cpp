@@ -28,12 +28,6 @@ void WheelCalibrationNodeOptions::validate() const {
   ros_layer::checkParam(std::isfinite(deadband_guess_resolution) &&
                             deadband_guess_resolution >= 0 && deadband_guess_resolution < 0.5,
                         "deadband_guess_resolution", "must be in [0, 0.5) (0: each its own)");
-  ros_layer::checkParam(!recorded_status_topic.empty(), "recorded_status_topic",
-                        "must not be empty");
-  ros_layer::checkParam(std::isfinite(recording_end_wait_s) && recording_end_wait_s > 0,
-                        "recording_end_wait_s", "must be > 0");
-  ros_layer::checkParam(std::isfinite(intrinsics_wait_s) && intrinsics_wait_s > 0,
-                        "intrinsics_wait_s", "must be > 0");
   ros_layer::validateParams(run);
 }
 
@@ -49,10 +43,6 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("update_kinematics_node", o.update_kinematics_node);
   p.get("deadband_guess", o.deadband_guess);
   p.get("deadband_guess_resolution", o.deadband_guess_resolution);
-  p.get("passive", o.passive);
-  p.get("recorded_status_topic", o.recorded_status_topic);
-  p.get("recording_end_wait_s", o.recording_end_wait_s);
-  p.get("intrinsics_wait_s", o.intrinsics_wait_s);
 
   WheelRunOptions& r = o.run;
   ros_layer::readTagParams(p, r.detector, r.heading, r.mount);
@@ -93,7 +83,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   checkWritableFolder(std::filesystem::path(kinematicsPath(o.stage.calibration_root, o.stage.veh))
                           .parent_path()
                           .string());
-  if (r.extrinsics_spins > 0 && !o.passive)
+  if (r.extrinsics_spins > 0)
     checkWritableFolder(
         std::filesystem::path(extrinsics::extrinsicsPath(o.stage.calibration_root, o.stage.veh))
             .parent_path()
@@ -143,7 +133,7 @@ WheelCalibrationNode::WheelCalibrationNode(ros::NodeHandle nh, ros::NodeHandle p
             options_.intrinsics_file.empty() ? "waiting for the camera stage"
                                              : "waiting for the camera and the encoders") {
   // Given intrinsics that cannot be read fail before anything else.
-  if (!options_.intrinsics_file.empty() && !options_.passive) readIntrinsics();
+  if (!options_.intrinsics_file.empty()) readIntrinsics();
   detections_pub_ =
       nh_.advertise<dtmsg::AprilTagDetectionArray>("apriltag_detector_node/detections", 5);
 }
@@ -158,7 +148,6 @@ void WheelCalibrationNode::publishDetections(double stamp_s) {
 }
 
 void WheelCalibrationNode::run() {
-  if (options_.passive) return runPassive();
   ros_layer::StageNode::Hooks hooks;
   hooks.after_frame = [this](double stamp_s, const cv::Mat&) { publishDetections(stamp_s); };
   hooks.after_finish = [this](StageResult&) {
@@ -210,83 +199,6 @@ CameraIntrinsics WheelCalibrationNode::readIntrinsics() const {
                       "' cannot be read (the wheel stage needs the calibrated camera)");
   }
   return ros_layer::fromCameraInfo(info);
-}
-
-void WheelCalibrationNode::onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
-  if (msg->phase.rfind("camera/", 0) != 0 || !options_.intrinsics_file.empty()) return;
-  if (msg->state == autocal::CalibrationStatus::STATE_FAILED)
-    camera_failure_ = msg->failure_reason.empty() ? msg->text : msg->failure_reason;
-  if (msg->state != autocal::CalibrationStatus::STATE_DONE) return;
-  try {
-    options_.intrinsics_file = fileOfDone(*msg);
-  } catch (...) {
-    *node_.error() = std::current_exception();
-  }
-}
-
-void WheelCalibrationNode::checkReplayIntrinsics() {
-  if (!camera_failure_.empty())
-    throw CalibrationError("the camera stage failed (" + camera_failure_ +
-                           "): the wheel stage needs its intrinsics");
-  if (intrinsics_set_ || !replay_ || options_.intrinsics_file.empty()) return;
-  replay_->setIntrinsics(readIntrinsics());
-  intrinsics_set_ = true;
-  ROS_INFO("wheel_calibration_node: replay: intrinsics %s", options_.intrinsics_file.c_str());
-}
-
-void WheelCalibrationNode::finishReplay() {
-  // The replayed camera stage may still be computing the intrinsics.
-  if (!intrinsics_set_)
-    node_.status().running("wheels/wait", 0.9, "waiting for the camera stage's intrinsics");
-  const ros::WallTime wait_end =
-      ros::WallTime::now() + ros::WallDuration(options_.intrinsics_wait_s);
-  ros::WallRate rate(options_.stage.control_rate_hz);
-  while (ros_layer::ok() && !intrinsics_set_) {
-    if (ros::WallTime::now() > wait_end)
-      throw CalibrationError("no intrinsics " + std::to_string(options_.intrinsics_wait_s) +
-                             " s after the recording's wheel stage ended: the camera stage gave "
-                             "no DONE on calibration/status, and no ~intrinsics_file");
-    ros::spinOnce();
-    if (*node_.error()) std::rethrow_exception(*node_.error());
-    checkReplayIntrinsics();
-    rate.sleep();
-  }
-  if (!ros_layer::ok()) return;
-  // Each update of the replayed iteration, as the live stage published them (the report's k plot).
-  const WheelReplayResult& result = replay_->finalResult();  // throws
-  for (std::size_t i = 0; i < result.iterations.size(); ++i) {
-    const TrimIteration& it = result.iterations[i];
-    node_.status().running("wheels/replay", 0.95, replay_->describe(),
-                           {{"iteration", static_cast<double>(i + 1)},
-                            {"k", it.ratio_after},
-                            {"trim", trimFromSpeedRatio(it.ratio_after, result.kinematics.gain)},
-                            {"last_dtheta_rad", it.delta_theta_rad}});
-  }
-}
-
-void WheelCalibrationNode::runPassive() {
-  ROS_INFO("wheel_calibration_node: passive: kinematics %s", kinematics_path_.c_str());
-  if (options_.intrinsics_file.empty())
-    stage_status_sub_ =
-        nh_.subscribe("calibration/status", 20, &WheelCalibrationNode::onStageStatus, this);
-  ros_layer::StageNode::Hooks hooks;
-  hooks.each_step = [this] { checkReplayIntrinsics(); };
-  hooks.before_finish = [this] { finishReplay(); };
-  ros_layer::StageNode::ReplayOptions replay;
-  replay.recorded_status_topic = options_.recorded_status_topic;
-  replay.recording_end_wait_s = options_.recording_end_wait_s;
-  // The recorded stage begins after its wait for the camera stage: from then on its commands,
-  // encoders and frames are the wheel stage's.
-  replay.build_at_first_phase = true;
-  node_.replay(
-      [this](int) {
-        WheelRunOptions r = options_.run;
-        r.kinematics = before_;
-        auto stage = std::make_unique<WheelReplay>(r);
-        replay_ = stage.get();
-        return stage;
-      },
-      hooks, replay);
 }
 
 }  // namespace wheels

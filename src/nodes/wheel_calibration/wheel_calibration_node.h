@@ -12,25 +12,15 @@
 // (phase wheels/<step>), apriltag_detector_node/detections (the tags of each processed frame).
 // On success writes the file, sets the running kinematics_node's parameters, publishes DONE whose
 // text is "wrote <path>", and returns; every failure is an exception for runNode's failure path.
-//
-// ~passive (replay.launch): the same stage recomputed from a recording played with `rosbag play
-// --clock`. It advertises no wheels_cmd and sets no kinematics_node parameter; from the recorded
-// run's first wheel-stage status (on ~recorded_status_topic) it follows the recorded
-// wheels_driver_node/wheels_cmd, encoders and frames (wheels::WheelReplay), takes the intrinsics
-// from ~intrinsics_file or the (replayed) camera stage's DONE on calibration/status, and once the
-// recorded wheel stage ended writes kinematics/<veh>.yaml as above. A recording that ends before
-// the stage did, or whose replayed iteration does not converge, is a failure.
-
+// A recorded run is recomputed by `rosrun autocal replay` (doc/nodes/replay.md), with no node.
 #pragma once
 
 #include <ros/ros.h>
 
-#include <exception>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "autocal/wheels/wheel_replay.h"
 #include "autocal/wheels/wheel_run.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/sensor_inputs.h"
@@ -56,15 +46,6 @@ struct WheelCalibrationNodeOptions {
   /// The camera stage's two minimum duties within this of each other are one deadband seen twice
   /// (its probe's duty step): both wheels' first guess is their mean (wheels::deadbandGuesses).
   double deadband_guess_resolution = 0.01;
-  /// Replay a recording instead of driving the robot (see above).
-  bool passive = false;
-  /// Passive: where the recording's calibration/status is played (replay.launch remaps it).
-  std::string recorded_status_topic = "calibration/recorded_status";
-  /// Passive: the recording has ended when the clock has not moved for this long [wall s].
-  double recording_end_wait_s = 5.0;
-  /// Passive: after the recorded stage ended, wait this long for the camera stage's intrinsics
-  /// [wall s].
-  double intrinsics_wait_s = 120.0;
   WheelRunOptions run;
 
   /// Throws ConfigError naming the first bad key.
@@ -82,14 +63,6 @@ class WheelCalibrationNode {
   /// deadband guesses.
   std::unique_ptr<Stage> build();
   void publishDetections(double stamp_s);
-  void runPassive();
-  /// Passive: fails when the camera stage failed; gives the replay the intrinsics once known.
-  void checkReplayIntrinsics();
-  /// Passive, after the recorded stage ended: waits for the intrinsics, publishes the replayed
-  /// iteration's updates.
-  void finishReplay();
-  /// Passive: the camera stage's DONE (or FAILED) on calibration/status.
-  void onStageStatus(const autocal::CalibrationStatus::ConstPtr& msg);
   CameraIntrinsics readIntrinsics() const;
 
   ros::NodeHandle nh_, pnh_;
@@ -99,11 +72,6 @@ class WheelCalibrationNode {
   ros_layer::StageNode node_;
   WheelRun* run_ = nullptr;  ///< the stage, once built
   ros::Publisher detections_pub_;
-  // Passive:
-  WheelReplay* replay_ = nullptr;  ///< the stage, once built
-  bool intrinsics_set_ = false;
-  ros::Subscriber stage_status_sub_;
-  std::string camera_failure_;
 };
 
 }  // namespace wheels

@@ -180,6 +180,24 @@ cv::Matx33d quaternionToRotation(const geometry_msgs::Quaternion& q_in) {
 }
 }  // namespace
 
+report::StatusUpdate fromStatusMsg(const autocal::CalibrationStatus& msg) {
+  using State = report::StatusUpdate::State;
+  report::StatusUpdate u;
+  u.stamp_s = msg.header.stamp.toSec();
+  u.phase = msg.phase;
+  u.state = msg.state == autocal::CalibrationStatus::STATE_DONE     ? State::kDone
+            : msg.state == autocal::CalibrationStatus::STATE_FAILED ? State::kFailed
+            : msg.state == autocal::CalibrationStatus::STATE_IDLE   ? State::kIdle
+                                                                    : State::kRunning;
+  u.progress = msg.progress;
+  u.text = msg.text;
+  u.failure_reason = msg.failure_reason;
+  u.file = msg.file;
+  for (size_t i = 0; i < msg.figure_names.size() && i < msg.figure_values.size(); ++i)
+    u.figures.emplace_back(msg.figure_names[i], msg.figure_values[i]);
+  return u;
+}
+
 markers::TagDetection fromTagDetectionMsg(const dtmsg::AprilTagDetection& msg) {
   markers::TagDetection d;
   d.id = msg.tag_id;

@@ -15,6 +15,7 @@
 #include "autocal/camera_intrinsics.h"
 #include "autocal/markers/tag_detection.h"
 #include "autocal/pose2d.h"
+#include "autocal/report/run_record.h"
 #include "autocal/sensors.h"
 #include "autocal/wheels/kinematics.h"
 #include "autocal_ros/msgs.h"
@@ -48,6 +49,10 @@ dtmsg::WheelsCmdStamped toWheelsCmd(const WheelDuties& duties, const ros::Time& 
 /// v and omega as they are (a non-finite value is the caller's to refuse).
 wheels::CarCommand fromCarCmd(const dtmsg::Twist2DStamped& msg);
 dtmsg::Twist2DStamped toCarCmd(const wheels::CarCommand& cmd, const ros::Time& stamp);
+
+// --- the run
+/// A calibration/status message as the report and the replay keep it.
+report::StatusUpdate fromStatusMsg(const autocal::CalibrationStatus& msg);
 
 // --- markers
 markers::TagDetection fromTagDetectionMsg(const dtmsg::AprilTagDetection& msg);

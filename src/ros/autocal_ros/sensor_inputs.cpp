@@ -35,25 +35,42 @@ void FrameInput::drop(const std::string& why) {
                     dropped_);
 }
 
+cv::Mat decodeFrame(const sensor_msgs::CompressedImage& msg, std::string& why) {
+  why = truncatedImage(msg.data);
+  if (!why.empty()) return {};
+  cv::Mat image;
+  if (!msg.data.empty()) image = cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE);
+  if (image.empty()) why = "the JPEG does not decode";
+  return image;
+}
+
+cv::Mat decodeFrame(const sensor_msgs::Image& msg, std::string& why) {
+  try {
+    return cv_bridge::toCvCopy(msg, "mono8")->image;
+  } catch (const cv_bridge::Exception& e) {
+    why = e.what();
+    return {};
+  }
+}
+
+std::string frameSource(const std::string& transport, const ros::Time& stamp) {
+  return transport + "@" + formatNumber(stamp.toSec(), 6);
+}
+
 void FrameInput::onCompressed(const sensor_msgs::CompressedImage::ConstPtr& msg) {
   if (*error_ || !wanted_(msg->header.stamp)) return;
-  const std::string cut = truncatedImage(msg->data);
-  if (!cut.empty()) return drop(cut);
-  cv::Mat image;
-  if (!msg->data.empty()) image = cv::imdecode(msg->data, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) return drop("the JPEG does not decode");
-  handle(msg->header.stamp, image, "compressed@" + formatNumber(msg->header.stamp.toSec(), 6));
+  std::string why;
+  const cv::Mat image = decodeFrame(*msg, why);
+  if (image.empty()) return drop(why);
+  handle(msg->header.stamp, image, frameSource("compressed", msg->header.stamp));
 }
 
 void FrameInput::onRaw(const sensor_msgs::Image::ConstPtr& msg) {
   if (*error_ || !wanted_(msg->header.stamp)) return;
-  cv::Mat image;
-  try {
-    image = cv_bridge::toCvCopy(msg, "mono8")->image;
-  } catch (const cv_bridge::Exception& e) {
-    return drop(e.what());
-  }
-  handle(msg->header.stamp, image, "raw@" + formatNumber(msg->header.stamp.toSec(), 6));
+  std::string why;
+  const cv::Mat image = decodeFrame(*msg, why);
+  if (image.empty()) return drop(why);
+  handle(msg->header.stamp, image, frameSource("raw", msg->header.stamp));
 }
 
 void FrameInput::handle(const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
@@ -95,95 +112,6 @@ void EncoderInput::on(const dtmsg::WheelEncoderStamped::ConstPtr& msg, bool left
   } catch (...) {
     *error_ = std::current_exception();
   }
-}
-
-RecordingFollower::RecordingFollower(ros::NodeHandle nh, const std::string& stage,
-                                     const std::string& recorded_status_topic,
-                                     CommandHandler on_command, PhaseHandler on_phase,
-                                     std::exception_ptr* error)
-    : stage_(stage),
-      on_command_(std::move(on_command)),
-      on_phase_(std::move(on_phase)),
-      error_(error) {
-  // Every command of the recording counts: a drive's start and stop cut the motions.
-  cmd_sub_ =
-      nh.subscribe("wheels_driver_node/wheels_cmd", 200, &RecordingFollower::onCommand, this);
-  status_sub_ = nh.subscribe(recorded_status_topic, 50, &RecordingFollower::onStatus, this);
-  status_topic_ = status_sub_.getTopic();
-}
-
-template <typename F>
-void RecordingFollower::guarded(F&& f) {
-  if (*error_) return;
-  try {
-    f();
-  } catch (...) {
-    *error_ = std::current_exception();
-  }
-}
-
-void RecordingFollower::onCommand(const dtmsg::WheelsCmdStamped::ConstPtr& msg) {
-  guarded([&] {
-    ++messages_;
-    noteMessage();
-    const ros::Time stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
-    on_command_(stamp, WheelDuties{msg->vel_left, msg->vel_right});
-  });
-}
-
-void RecordingFollower::onStatus(const autocal::CalibrationStatus::ConstPtr& msg) {
-  guarded([&] {
-    ++messages_;
-    noteMessage();
-    if (msg->phase.rfind(stage_ + "/", 0) != 0) return;
-    if (msg->phase != stage_ + "/wait") started_ = true;
-    if (msg->progress >= 0 && msg->progress <= 1)
-      progress_ = std::max(progress_, static_cast<double>(msg->progress));
-    const ros::Time stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
-    on_phase_(stamp, msg->phase);
-    if (msg->state == autocal::CalibrationStatus::STATE_DONE ||
-        msg->state == autocal::CalibrationStatus::STATE_FAILED) {
-      ended_ = true;
-      failed_ = msg->state == autocal::CalibrationStatus::STATE_FAILED;
-      failure_ = msg->failure_reason;
-    }
-  });
-}
-
-bool RecordingFollower::recordingEnded(double wait_s) {
-  const ros::WallTime now = ros::WallTime::now();
-  if (clock_start_wall_.isZero()) {
-    if (ros::Time::now().isZero()) return false;  // rosbag play has not started
-    clock_start_wall_ = now;
-  }
-  const ros::WallTime since = std::max(last_message_wall_, clock_start_wall_);
-  return (now - since).toSec() > wait_s;
-}
-
-bool RecordingFollower::followToEnd(double rate_hz, double end_wait_s,
-                                    const std::exception_ptr& error,
-                                    const std::function<void()>& each_step,
-                                    const std::function<std::string()>& describe) {
-  // "the wheel stage": the stage's name as a person says it.
-  const std::string noun = stage_ == "wheels" ? "wheel" : stage_;
-  ros::WallRate rate(rate_hz);
-  while (ok() && !ended_) {
-    ros::spinOnce();
-    if (error) std::rethrow_exception(error);
-    each_step();
-    if (recordingEnded(end_wait_s)) {
-      throw InputError("the recording ended before its " + noun + " stage did (" + describe() +
-                       (started_ ? "; the stage's end is not in it)"
-                                 : "; no status of the " + noun + " stage on " + status_topic_ +
-                                       ": was calibration/status recorded?)"));
-    }
-    rate.sleep();
-  }
-  if (!ok()) return false;
-  if (failed_)
-    ROS_WARN("%s: the recorded %s stage FAILED (%s); recomputing what it did",
-             ros::this_node::getName().c_str(), noun.c_str(), failure_.c_str());
-  return true;
 }
 
 }  // namespace ros_layer

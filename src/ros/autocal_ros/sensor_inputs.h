@@ -20,6 +20,13 @@
 namespace autocal {
 namespace ros_layer {
 
+/// A camera frame as 8-bit grey: the JPEG decoded (an empty image when it does not, and `why` says
+/// why), or the raw image converted.
+cv::Mat decodeFrame(const sensor_msgs::CompressedImage& msg, std::string& why);
+cv::Mat decodeFrame(const sensor_msgs::Image& msg, std::string& why);
+/// The frame's name in a stage's records: "compressed@<stamp>", "raw@<stamp>".
+std::string frameSource(const std::string& transport, const ros::Time& stamp);
+
 class FrameInput {
  public:
   /// Called for every frame's stamp; true when the frame is to be decoded and handled.
@@ -29,7 +36,7 @@ class FrameInput {
 
   /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr).
   /// `transport`: "compressed" or "raw". `error` receives a handler's exception.
-  /// `queue_size`: frames waiting while one is handled (a replay keeps more: none may be lost).
+  /// `queue_size`: frames waiting while one is handled.
   FrameInput(ros::NodeHandle nh, const std::string& transport, const std::string& node_name,
              Wanted wanted, Handler handler, std::exception_ptr* error, int queue_size = 2);
   /// Frames of another size are dropped (default: the first frame's size).
@@ -66,8 +73,7 @@ class EncoderInput {
                                           int ticks_per_revolution)>;
 
   /// Subscribes with `this`: not copyable or movable (hold it in a unique_ptr). `queue_size`
-  /// readings per wheel wait while the node is busy (a replay, fed faster than real time, must
-  /// lose none: a lost reading at a drive's end moves the rate the deadband fit sees).
+  /// readings per wheel wait while the node is busy.
   EncoderInput(ros::NodeHandle nh, Handler handler, std::exception_ptr* error,
                WheelHandler on_wheel = {}, uint32_t queue_size = 50);
   EncoderInput(const EncoderInput&) = delete;
@@ -90,69 +96,6 @@ class EncoderInput {
   std::exception_ptr* error_ = nullptr;
   bool have_left_ = false, have_right_ = false;
   int left_ = 0, right_ = 0, resolution_ = 0;
-};
-
-/// A passive stage's view of a recording played with `rosbag play --clock` (replay.launch): the
-/// commands the robot was given (wheels_driver_node/wheels_cmd, which the passive node only reads)
-/// and the recorded run's status of one stage, on `recorded_status_topic` (where replay.launch
-/// remaps the bag's calibration/status, so that it does not mix with the replay's own).
-class RecordingFollower {
- public:
-  using CommandHandler = std::function<void(const ros::Time& stamp, const WheelDuties& duties)>;
-  /// Every recorded status of the stage: its stamp and phase ("<stage>/<step>").
-  using PhaseHandler = std::function<void(const ros::Time& stamp, const std::string& phase)>;
-  /// Subscribes with `this`: not copyable or movable. `error` receives a handler's exception.
-  RecordingFollower(ros::NodeHandle nh, const std::string& stage,
-                    const std::string& recorded_status_topic, CommandHandler on_command,
-                    PhaseHandler on_phase, std::exception_ptr* error);
-  RecordingFollower(const RecordingFollower&) = delete;
-  RecordingFollower& operator=(const RecordingFollower&) = delete;
-
-  /// The recorded stage has begun: a phase of it other than "<stage>/wait" was seen.
-  bool stageStarted() const { return started_; }
-  /// The recorded stage published DONE or FAILED (failed(): FAILED, with its reason).
-  bool stageEnded() const { return ended_; }
-  bool stageFailed() const { return failed_; }
-  const std::string& failure() const { return failure_; }
-  /// The recorded stage's progress so far, 0-1 (the largest its statuses gave): how far the
-  /// recording has played through the stage.
-  double progress() const { return progress_; }
-  /// Messages of the recording seen so far (commands and statuses).
-  int messages() const { return messages_; }
-  /// Another message of the recording arrived (the node's frames and encoders; commands and
-  /// statuses are noted here).
-  void noteMessage() { last_message_wall_ = ros::WallTime::now(); }
-  /// True when no message of the recording came for `wait_s` of wall time since the recording's
-  /// clock started (rosbag play --keep-alive goes on publishing its clock past the end): the
-  /// recording ended, or holds none of the stage's topics. Call it from the node's loop.
-  bool recordingEnded(double wait_s);
-  const std::string& statusTopic() const { return status_topic_; }
-
-  /// A passive node's loop: handles the callbacks at `rate_hz` [wall] until the recorded stage
-  /// ended, rethrowing what a callback kept in `error` and calling `each_step` after each batch
-  /// (the node's status, its own checks). Throws InputError when the recording ends first ("the
-  /// recording ended before its <stage> stage did (<describe()>; ...)"). Returns false when
-  /// interrupted; warns when the recorded stage FAILED (the replay recomputes what it did).
-  bool followToEnd(double rate_hz, double end_wait_s, const std::exception_ptr& error,
-                   const std::function<void()>& each_step,
-                   const std::function<std::string()>& describe);
-
- private:
-  void onCommand(const dtmsg::WheelsCmdStamped::ConstPtr& msg);
-  void onStatus(const autocal::CalibrationStatus::ConstPtr& msg);
-  template <typename F>
-  void guarded(F&& f);
-
-  ros::Subscriber cmd_sub_, status_sub_;
-  std::string stage_, status_topic_;
-  CommandHandler on_command_;
-  PhaseHandler on_phase_;
-  std::exception_ptr* error_ = nullptr;
-  bool started_ = false, ended_ = false, failed_ = false;
-  std::string failure_;
-  double progress_ = 0;
-  int messages_ = 0;
-  ros::WallTime clock_start_wall_, last_message_wall_;
 };
 
 }  // namespace ros_layer

@@ -1,6 +1,7 @@
 #include "autocal_ros/stage_node.h"
 
 #include <sensor_msgs/Range.h>
+#include <std_msgs/Header.h>
 
 #include <cmath>
 
@@ -51,18 +52,12 @@ bool StageNode::inputsConnected() const {
          (!inputs_.ranges || range_sub_.getNumPublishers() > 0);
 }
 
-namespace {
-/// Messages of each input that wait while a replay is busy: rosbag play feeds a recording faster
-/// than real time, and a lost encoder reading or frame changes what the replay computes.
-constexpr uint32_t kReplayQueue = 2000;
-}  // namespace
-
-void StageNode::subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t encoder_queue) {
+void StageNode::subscribe(const Hooks& hooks) {
   if (!inputs_.image_transport.empty()) {
+    frames_used_ = nh_.advertise<std_msgs::Header>("calibration/frames_used", 50);
     frames_ = std::make_unique<FrameInput>(
         nh_, inputs_.image_transport, node_name_,
         [this](const ros::Time& stamp) {
-          if (recording_) recording_->noteMessage();
           if (!stage_) return false;
           arrivals_.frames = true;
           stage_->noteFrameArrived(ros::Time::now().toSec());
@@ -70,10 +65,16 @@ void StageNode::subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t enc
           return stage_->wantsFrame(stamp.toSec());
         },
         [this, hooks](const ros::Time& stamp, const cv::Mat& image, const std::string& source) {
-          stage_->addFrame(stamp.toSec(), image, source);
+          if (stage_->addFrame(stamp.toSec(), image, source)) {
+            // For a replay of the recording: the frames this stage took (doc/nodes/replay.md).
+            std_msgs::Header used;
+            used.stamp = stamp;
+            used.frame_id = stage_name_;
+            frames_used_.publish(used);
+          }
           if (hooks.after_frame) hooks.after_frame(stamp.toSec(), image);
         },
-        &error_, static_cast<int>(frame_queue));
+        &error_);
   }
   EncoderInput::WheelHandler on_wheel;
   if (inputs_.pair_encoders) {
@@ -92,11 +93,10 @@ void StageNode::subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t enc
       nh_,
       [this](const ros::Time& stamp, int left, int right, int resolution) {
         arrivals_.encoders = true;
-        if (recording_) recording_->noteMessage();
         if (inputs_.pair_encoders || !stage_) return;
         stage_->addEncoders(stamp.toSec(), left, right, resolution, ros::Time::now().toSec());
       },
-      &error_, on_wheel, encoder_queue);
+      &error_, on_wheel, inputs_.queue_size);
   if (inputs_.ranges) {
     range_sub_ = nh_.subscribe<sensor_msgs::Range>("front_center_tof_driver_node/range", 20,
                                                    [this](const sensor_msgs::Range::ConstPtr& msg) {
@@ -112,9 +112,9 @@ void StageNode::subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t enc
   }
 }
 
-void StageNode::build(const Factory& factory, int ticks_per_revolution, bool live) {
+void StageNode::build(const Factory& factory, int ticks_per_revolution) {
   stage_ = factory(ticks_per_revolution);
-  if (live && encoders_->valid() && !inputs_.pair_encoders) {
+  if (encoders_->valid() && !inputs_.pair_encoders) {
     // The latest reading, so that the stage starts from where the wheels are.
     const double now = ros::Time::now().toSec();
     stage_->addEncoders(now, encoders_->left(), encoders_->right(), encoders_->resolution(), now);
@@ -147,13 +147,13 @@ void StageNode::run(const Factory& factory, const Hooks& hooks) {
     after_stage_done_ = waitForStage(nh_, options_.after_stage, options_.after_stage_wait_s);
     if (!ok()) return;
   }
-  subscribe(hooks, 2, inputs_.queue_size);
+  subscribe(hooks);
   wheels_ = connectStage(
       nh_, [this] { return inputsConnected(); }, options_.connect_wait_s);
   if (hooks.before_build) hooks.before_build();
   if (!ok()) return;
   if (inputs_.first_encoders_wait_s <= 0) {
-    build(factory, encoders_->valid() ? encoders_->resolution() : 0, true);
+    build(factory, encoders_->valid() ? encoders_->resolution() : 0);
   } else {
     // Wall time until the first reading: a simulator may hold its clock until a command arrives.
     const ros::WallTime end =
@@ -167,7 +167,7 @@ void StageNode::run(const Factory& factory, const Hooks& hooks) {
       ros::WallDuration(1.0 / options_.control_rate_hz).sleep();
     }
     if (!ok()) return;
-    build(factory, encoders_->resolution(), true);
+    build(factory, encoders_->resolution());
   }
   Stage& stage = *stage_;
   if (!runStageLoop(
@@ -187,52 +187,6 @@ void StageNode::finish(const Hooks& hooks) {
   ROS_INFO("%s: wrote %s: %s", node_name_.c_str(), result.file.c_str(), result.log.c_str());
   status_.done(stage_name_ + "/write", result.text.empty() ? "wrote " + result.file : result.text,
                result.figures, result.file);
-}
-
-void StageNode::replay(const Factory& factory, const Hooks& hooks, const ReplayOptions& options) {
-  if (resumed()) return;
-  recording_ = std::make_unique<RecordingFollower>(
-      nh_, stage_name_, options.recorded_status_topic,
-      [this](const ros::Time& stamp, const WheelDuties& d) {
-        if (stage_) stage_->addRecordedCommand(stamp.toSec(), d);
-      },
-      [this, factory, options](const ros::Time& stamp, const std::string& phase) {
-        if (!stage_ && options.build_at_first_phase && phase != stage_name_ + "/wait")
-          build(factory, 0, false);
-        if (stage_) stage_->addRecordedPhase(stamp.toSec(), phase);
-      },
-      &error_);
-  ROS_INFO("%s: passive: replaying the %s stage from the recording (recorded status on %s)",
-           node_name_.c_str(), stage_name_.c_str(), recording_->statusTopic().c_str());
-  subscribe(hooks, kReplayQueue, kReplayQueue);
-  if (hooks.before_build) hooks.before_build();
-  if (!ok()) return;
-  if (!options.build_at_first_phase) build(factory, 0, false);
-  ros::WallTime last_status;
-  auto step = [&] {
-    if (hooks.each_step) hooks.each_step();
-    if (!stage_ || (ros::WallTime::now() - last_status).toSec() < 1.0 / options_.status_rate_hz)
-      return;
-    // The replay keeps pace with the recording: its progress is the recorded stage's.
-    const StageStatus s = stage_->status();
-    Figures figures = s.figures;
-    figures.emplace_back("frames_dropped", static_cast<double>(framesDropped()));
-    status_.running(stage_name_ + "/" + s.step, 0.9 * recording_->progress(), s.text, figures);
-    last_status = ros::WallTime::now();
-  };
-  const std::string noun = stage_name_ == "wheels" ? "wheel" : stage_name_;
-  auto describe = [&] {
-    return stage_ ? stage_->status().text : "waiting for the recorded " + noun + " stage";
-  };
-  if (!recording_->followToEnd(options_.control_rate_hz, options.recording_end_wait_s, error_, step,
-                               describe))
-    return;
-  if (!stage_)
-    throw InputError("the recorded " + noun + " stage ended before it began: nothing to replay (" +
-                     recording_->failure() + ")");
-  if (hooks.before_finish) hooks.before_finish();
-  if (!ok()) return;
-  finish(hooks);
 }
 
 }  // namespace ros_layer

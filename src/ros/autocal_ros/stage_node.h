@@ -50,7 +50,7 @@ struct StageInputs {
   std::string image_transport;  ///< "compressed" or "raw"; empty: no frames
   bool ranges = false;          ///< front_center_tof_driver_node/range
   bool pair_encoders = false;   ///< both wheels' counts at one instant (EncoderPairer)
-  uint32_t queue_size = 50;     ///< encoder readings waiting per wheel (a replay keeps more)
+  uint32_t queue_size = 50;     ///< encoder readings waiting per wheel
   /// > 0: the stage is built only at the first encoder reading (its resolution), waited for this
   /// long [wall s] after connecting; none is an InputError.
   double first_encoders_wait_s = 0;
@@ -71,10 +71,6 @@ class StageNode {
     std::function<bool()> inputs_connected;
     /// After the inputs connected, before the stage is built (a wait for camera_info).
     std::function<void()> before_build;
-    /// Replay: after every batch of the recording's messages (a check of the node's own).
-    std::function<void()> each_step;
-    /// Replay: after the recorded stage ended, before finish() (the node's last inputs).
-    std::function<void()> before_finish;
     /// After the stage took a frame.
     std::function<void(double stamp_s, const cv::Mat& gray)> after_frame;
     /// After the file is written, before DONE (a service told); may add to the result.
@@ -88,25 +84,6 @@ class StageNode {
   /// ~resume: true when the last run's result of this stage is kept (its DONE published again),
   /// so that the stage need not run (resumeStage). run() asks it first.
   bool resumed();
-  /// How a passive node follows a recording played with `rosbag play --clock` (replay.launch).
-  struct ReplayOptions {
-    /// Where the recording's calibration/status is played (replay.launch remaps it).
-    std::string recorded_status_topic = "calibration/recorded_status";
-    /// The recording has ended when no message of it came for this long [wall s].
-    double recording_end_wait_s = 5.0;
-    /// Build the stage at the recorded stage's first phase other than "<stage>/wait" (what comes
-    /// before belongs to the stage before); false: at once, after before_build.
-    bool build_at_first_phase = false;
-  };
-  /// The stage recomputed from a recording (its factory builds a replay: camera::SweepReplay,
-  /// wheels::WheelReplay): the recorded inputs with long queues (rosbag play feeds faster than
-  /// real time, and a lost reading changes the result), the recorded commands and phases, no
-  /// wheels; until the recorded stage ended, then finish() and DONE as run(). Throws InputError
-  /// when the recording ends first or holds none of the stage.
-  void replay(const Factory& factory, const Hooks& hooks, const ReplayOptions& options);
-  /// The recording being followed (replay; null before).
-  RecordingFollower* recording() { return recording_.get(); }
-
   StatusPublisher& status() { return status_; }
   /// Where a callback keeps its exception for the loop to rethrow.
   std::exception_ptr* error() { return &error_; }
@@ -120,11 +97,9 @@ class StageNode {
  private:
   /// The stage's inputs have publishers.
   bool inputsConnected() const;
-  /// Frames dropped by the frame input (0 without frames).
-  int framesDropped() const { return frames_ ? frames_->dropped() : 0; }
-  void subscribe(const Hooks& hooks, uint32_t frame_queue, uint32_t encoder_queue);
-  /// `live`: the latest encoder reading is given to the new stage.
-  void build(const Factory& factory, int ticks_per_revolution, bool live);
+  void subscribe(const Hooks& hooks);
+  /// The latest encoder reading is given to the new stage.
+  void build(const Factory& factory, int ticks_per_revolution);
   void publishStatus();
   /// The stage's end: its file written, DONE published.
   void finish(const Hooks& hooks);
@@ -140,7 +115,7 @@ class StageNode {
   std::unique_ptr<FrameInput> frames_;
   std::unique_ptr<EncoderInput> encoders_;
   ros::Subscriber range_sub_;
-  std::unique_ptr<RecordingFollower> recording_;
+  ros::Publisher frames_used_;  ///< calibration/frames_used: the stamps of the frames taken
   EncoderPairer pairer_;
   Arrivals arrivals_;
   CalibrationStatus after_stage_done_;

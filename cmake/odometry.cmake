@@ -78,11 +78,12 @@ if(CATKIN_ENABLE_TESTING)
   add_executable(test_uah_bag EXCLUDE_FROM_ALL test/odometry/test_uah_bag.cpp)
   target_link_libraries(test_uah_bag autocal_sim_core autocal_ros GTest::gtest)
   target_include_directories(test_uah_bag PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
-  target_compile_definitions(test_uah_bag PRIVATE UAH_BINARY="$<TARGET_FILE:uah>")
+  target_compile_definitions(test_uah_bag PRIVATE UAH_BINARY="$<TARGET_FILE:uah>"
+    REPLAY_BINARY="$<TARGET_FILE:replay>")
   autocal_ros_target(test_uah_bag)
   add_dependencies(tests test_uah_bag)
   add_rostest(test/odometry/uah_bag.test
-    DEPENDENCIES test_uah_bag uah odometry_calibration_node straight_length_helper sim_node)
+    DEPENDENCIES test_uah_bag uah replay odometry_calibration_node straight_length_helper sim_node)
 endif()
 
 # UMBmark driven by the robot (odometry::UmbmarkRun), its test on the simulator's core (beside UAH

@@ -2,14 +2,10 @@
 // The UAH odometry calibration (paper 002 §2) recomputed from a bag of a run of
 // odometry_calibration_node, no robot and no master: the passive mode (odometry::replayUah). Prints
 // the result as YAML and optionally writes the odometry calibration file. doc/nodes/uah.md.
-#include <rosbag/view.h>
-#include <std_msgs/Float64.h>
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <iostream>
-#include <set>
 #include <sstream>
 #include <string>
 
@@ -19,8 +15,6 @@
 #include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/uah_replay.h"
 #include "autocal/physical_range.h"
-#include "autocal_ros/msg_conversion.h"
-#include "autocal_ros/msgs.h"
 #include "autocal_ros/recording.h"
 
 namespace {
@@ -110,145 +104,6 @@ Args parseArgs(int argc, char** argv) {
   return a;
 }
 
-/// The messages' times: each message's header stamp; a stamp of 0 is resolved once the whole bag
-/// is read (resolve()). A publisher that never stamps leaves 0: its messages take the bag's record
-/// time. But a publisher that stamps its other messages sent this one at time 0 of its clock (in
-/// the simulator, the clock held at 0 until a controller appears): its record time is when the
-/// recorder got it, on a clock already running, and taken as the stamp it put the node's zero
-/// commands of time 0 after its first pivot's first command, cutting that motion short
-/// (uah_bag.test: "pivot_left_stopped at 0.005 s: the recording has no encoder readings over the
-/// motion"). Such a stamp stays 0.
-class MessageTimes {
- public:
-  /// `header_stamp` [s], and notes it; `slot` is where the caller keeps it (kept until resolve()).
-  double note(const rosbag::MessageInstance& m, const ros::Time& header_stamp,
-              std::function<double&()> slot) {
-    const std::string source = m.getTopic() + " from " + m.getCallerId();
-    if (!header_stamp.isZero()) {
-      stamping_.insert(source);
-    } else {
-      zero_.push_back({source, m.getTime().toSec(), std::move(slot)});
-    }
-    return header_stamp.toSec();
-  }
-  /// Gives the unstamped messages (those of a publisher that never stamps) their record time.
-  void resolve() {
-    for (ZeroStamp& z : zero_) {
-      if (!stamping_.count(z.source)) z.slot() = z.record_s;
-    }
-    zero_.clear();
-  }
-
- private:
-  struct ZeroStamp {
-    std::string source;
-    double record_s;
-    std::function<double&()> slot;
-  };
-  std::set<std::string> stamping_;  // topic and publisher of each message with a stamp
-  std::vector<ZeroStamp> zero_;
-};
-
-struct BagContents {
-  UahRecording recording;
-  int ticks_per_revolution = 0;
-};
-
-BagContents readBag(const std::string& path, const std::string& veh) {
-  ros_layer::Recording recording(path);
-  const std::string ns = "/" + veh + "/";
-  const std::string left = ns + "left_wheel_encoder_node/tick",
-                    right = ns + "right_wheel_encoder_node/tick",
-                    range = ns + "front_center_tof_driver_node/range",
-                    cmd = ns + "wheels_driver_node/wheels_cmd", status = ns + "calibration/status",
-                    length = ns + "odometry_calibration_node/straight_length";
-  recording.require({left, right, range, cmd, status}, veh);
-  BagContents out;
-  UahRecording& rec = out.recording;
-  struct Tick {
-    double stamp_s;
-    std::int32_t ticks;
-  };
-  std::vector<Tick> wheel[2];  // left, right
-  rosbag::View view(recording.bag(), rosbag::TopicQuery({left, right, range, cmd, status, length}));
-  auto wrongType = [&](const rosbag::MessageInstance& m, const char* expected) {
-    return InputError(path + ": " + m.getTopic() + " carries " + m.getDataType() + ", not " +
-                      expected);
-  };
-  MessageTimes times;
-  // Where the last message pushed onto `v` keeps its stamp.
-  auto lastOf = [](auto& v) {
-    return [&v, i = v.size() - 1]() -> double& { return v[i].stamp_s; };
-  };
-  try {
-    for (const rosbag::MessageInstance& m : view) {
-      const std::string& topic = m.getTopic();
-      if (topic == left || topic == right) {
-        const auto msg = m.instantiate<dtmsg::WheelEncoderStamped>();
-        if (!msg) throw wrongType(m, "WheelEncoderStamped");
-        const EncoderReading r = ros_layer::fromEncoderMsg(*msg);
-        out.ticks_per_revolution = r.ticks_per_revolution;
-        std::vector<Tick>& w = wheel[topic == left ? 0 : 1];
-        w.push_back({0, r.ticks});
-        w.back().stamp_s = times.note(m, msg->header.stamp, lastOf(w));
-      } else if (topic == range) {
-        const auto msg = m.instantiate<sensor_msgs::Range>();
-        if (!msg) throw wrongType(m, "sensor_msgs/Range");
-        const RangeReading r = ros_layer::fromRangeMsg(*msg);
-        rec.ranges.push_back({0, r.range_m});
-        rec.ranges.back().stamp_s = times.note(m, msg->header.stamp, lastOf(rec.ranges));
-      } else if (topic == cmd) {
-        const auto msg = m.instantiate<dtmsg::WheelsCmdStamped>();
-        if (!msg) throw wrongType(m, "WheelsCmdStamped");
-        const WheelDuties d = ros_layer::fromWheelsCmd(*msg);
-        rec.commands.push_back({0, d.left, d.right});
-        rec.commands.back().stamp_s = times.note(m, msg->header.stamp, lastOf(rec.commands));
-      } else if (topic == status) {
-        const auto msg = m.instantiate<autocal::CalibrationStatus>();
-        if (!msg) throw wrongType(m, "autocal/CalibrationStatus");
-        rec.statuses.emplace_back();
-        UahRecording::Status& s = rec.statuses.back();
-        s.stamp_s = times.note(m, msg->header.stamp, lastOf(rec.statuses));
-        s.phase = msg->phase;
-        s.state = msg->state;
-        s.failure_reason = msg->failure_reason;
-        for (size_t i = 0; i < msg->figure_names.size() && i < msg->figure_values.size(); ++i) {
-          if (msg->figure_names[i] == "round") s.round = msg->figure_values[i];
-          if (msg->figure_names[i] == "straight_run") s.straight_run = msg->figure_values[i];
-        }
-      } else if (topic == length) {
-        const auto msg = m.instantiate<std_msgs::Float64>();
-        if (!msg) throw wrongType(m, "std_msgs/Float64");
-        rec.lengths.push_back({m.getTime().toSec(), msg->data});
-      }
-    }
-  } catch (const rosbag::BagException& e) {
-    throw InputError(path +
-                     ": the bag cannot be read to its end (truncated or corrupt?): " + e.what());
-  }
-  times.resolve();
-  // The two wheels' readings in the order of their stamps (the bag holds them in the order the
-  // recorder received them, which a loaded machine shuffles): as the node's EncoderInput, every
-  // reading, once both wheels reported, is a reading of both (the latest of each); readings of
-  // one stamp are merged by replayUah.
-  for (auto& w : wheel) {
-    std::stable_sort(w.begin(), w.end(),
-                     [](const Tick& a, const Tick& b) { return a.stamp_s < b.stamp_s; });
-  }
-  size_t i = 0, j = 0;
-  while (i < wheel[0].size() || j < wheel[1].size()) {
-    const bool take_left =
-        j >= wheel[1].size() || (i < wheel[0].size() && wheel[0][i].stamp_s <= wheel[1][j].stamp_s);
-    const Tick& t = take_left ? wheel[0][i++] : wheel[1][j++];
-    if (i == 0 || j == 0) continue;  // until both wheels reported
-    rec.encoders.push_back({t.stamp_s, wheel[0][i - 1].ticks, wheel[1][j - 1].ticks});
-  }
-  if (rec.encoders.empty()) {
-    throw InputError(path + ": no reading of both encoders in the bag");
-  }
-  return out;
-}
-
 std::string yamlString(const std::string& s) {
   std::string out = "\"";
   for (char c : s) {
@@ -264,7 +119,8 @@ int run(int argc, char** argv) {
     std::cout << kUsage;
     return 0;
   }
-  const BagContents bag = readBag(args.bag, args.veh);
+  ros_layer::Recording recording(args.bag);
+  const ros_layer::UahBag bag = ros_layer::readUahRecording(recording, args.veh);
   const int resolution =
       args.ticks_per_revolution > 0 ? args.ticks_per_revolution : bag.ticks_per_revolution;
   UahReplayOptions options;

@@ -48,14 +48,13 @@ std::string slurp(const std::string& path) {
   return s.str();
 }
 
-/// Runs `uah ARGS`; its exit code, stdout and stderr.
-Command runUah(const std::string& args) {
+/// Runs `BINARY ARGS`; its exit code, stdout and stderr.
+Command runCommand(const std::string& binary, const std::string& args) {
   const std::string dir = fs::temp_directory_path() / "autocal_uah_bag_test_out";
   fs::create_directories(dir);
   const std::string out = dir + "/stdout", err = dir + "/stderr";
   const auto t0 = std::chrono::steady_clock::now();
-  const int status =
-      std::system((std::string(UAH_BINARY) + " " + args + " > " + out + " 2> " + err).c_str());
+  const int status = std::system((binary + " " + args + " > " + out + " 2> " + err).c_str());
   Command c;
   c.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   c.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -63,6 +62,9 @@ Command runUah(const std::string& args) {
   c.err = slurp(err);
   return c;
 }
+
+/// Runs `uah ARGS`.
+Command runUah(const std::string& args) { return runCommand(UAH_BINARY, args); }
 
 /// The recorded bag and the live result, shared by the tests (one recorded run).
 struct Recorded {
@@ -220,6 +222,24 @@ TEST(UahBag, RecomputesTheLiveRunFromItsBag) {
   EXPECT_NEAR(YAML::Load(nominal.out)["right_m_per_pulse"].as<double>() / cR, 3.0 / mean_length,
               1e-3);
   g_recorded = Recorded{bag, veh, live_path, b};
+
+  // `replay` recomputes the run from the same bag with no master: the recording holds the odometry
+  // stage alone, which it replays as `uah --bag` does, and it writes the file and the run's report.
+  const std::string replay_root = root + "/replay";
+  const Command rp =
+      runCommand(REPLAY_BINARY, bag + " --veh " + veh + " --calibration-root " + replay_root);
+  ASSERT_EQ(rp.code, 0) << rp.out << rp.err;
+  std::cout << "replay (" << rp.wall_s << " s):\n" << rp.out << std::endl;
+  const YAML::Node replayed =
+      YAML::LoadFile(autocal::odometry::odometryCalibrationPath(replay_root, veh));
+  EXPECT_NEAR(replayed["Ed"].as<double>(), Ed, 1e-9);
+  EXPECT_NEAR(replayed["b"].as<double>(), wheelbase, 1e-9);
+  EXPECT_NEAR(replayed["right_m_per_pulse"].as<double>(), cR, 1e-12);
+  const YAML::Node summary = YAML::LoadFile(replay_root + "/report/" + veh + "/summary.yaml");
+  EXPECT_EQ(summary["result"].as<std::string>(), "success");
+  EXPECT_EQ(summary["replay_of"].as<std::string>(), bag);
+  EXPECT_EQ(summary["stages"]["odometry"]["state"].as<std::string>(), "done");
+  EXPECT_FALSE(summary["stages"]["camera"]);
 
   // A zero command of time 0 (stamp 0) recorded after the first motion began is still the
   // command before it: the same result (a stamp of 0 from a publisher that stamps is time 0, not

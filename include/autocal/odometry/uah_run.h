@@ -122,6 +122,12 @@ struct UahTurn {
   double decorrelation_fraction = 0.0;
 };
 
+/// The odometry stage's file, live or replayed: writes odometryCalibrationPath(output) from
+/// `result` (the quality gate first; throws on failure), with the DONE figures and log line;
+/// `turns` are the stage's pivots and spin, `elapsed_s` its duration.
+StageResult writeUahStageFile(const StageOutput& output, const UahResult& result,
+                              const std::vector<UahTurn>& turns, double elapsed_s);
+
 class UahRun : public Stage {
  public:
   /// Throws ConfigError on bad options.

@@ -31,7 +31,7 @@ namespace replay {
 struct RunReplayOptions {
   std::string veh;
   std::string calibration_root;  ///< where the replay writes its files
-  /// The stages replayed, in run order: "camera", "wheels" (one or both).
+  /// The stages replayed, in run order: "camera", "wheels", "odometry" (any of them).
   std::vector<std::string> stages = {"camera", "wheels"};
   camera::CameraCalibrationConfig camera;  ///< loadStageCameraConfig, as the live node
   camera::SweepRunOptions camera_run;
@@ -41,6 +41,9 @@ struct RunReplayOptions {
   wheels::WheelRunOptions wheel_run;
   /// The wheel stage's intrinsics (a camera_info YAML file); empty: the replayed camera stage's.
   std::string intrinsics_file;
+  /// The odometry stage recomputed from the whole recording (odometry::replayUah on what the
+  /// caller read of it) and its file written; called at the recorded odometry stage's end.
+  std::function<StageResult(const StageOutput& output)> odometry;
   /// The recording replayed (the report names it).
   std::string recording;
   /// A line for a person: a stage begins, ends or fails.
@@ -95,6 +98,9 @@ class RunReplay {
   static std::string noun(const std::string& stage);
   void build(double stamp_s);
   void finishStage(double stamp_s);
+  void finishOdometry(double stamp_s);
+  /// The current stage's DONE with `result`; the next stage becomes current.
+  void done(double stamp_s, StageResult result);
   void fail(double stamp_s, const std::string& why);
   void status(double stamp_s, report::StatusUpdate::State state, const std::string& step,
               const std::string& text, const Figures& figures, const std::string& file = "");
@@ -117,6 +123,7 @@ class RunReplay {
   EncoderPairer pairer_;
   double last_stamp_s_ = 0;
   double recorded_progress_ = 0;
+  bool odometry_started_ = false;
   std::map<std::string, std::set<double>> frames_used_;
 };
 

@@ -610,13 +610,14 @@ StageStatus UahRun::status() const {
   return s;
 }
 
-StageResult UahRun::finish(const StageOutput& output) {
-  const OdometryCalibration c = result_.toOdometryCalibration(output.veh);
+StageResult writeUahStageFile(const StageOutput& output, const UahResult& result,
+                              const std::vector<UahTurn>& turns, double elapsed_s) {
+  const OdometryCalibration c = result.toOdometryCalibration(output.veh);
   StageResult r;
   r.file = odometryCalibrationPath(output.calibration_root, output.veh);
   writeOdometryCalibration(r.file, c);  // the quality gate first; throws on failure
   double spin_ppr = 0;
-  for (const auto& t : turns_)
+  for (const auto& t : turns)
     if (t.experiment == UahExperiment::kSpin) spin_ppr = t.detection.pulses_per_round;
   r.figures = {
       {"Ed", c.Ed},
@@ -624,17 +625,21 @@ StageResult UahRun::finish(const StageOutput& output) {
       {"wheelbase_m", c.wheelbase_m},
       {"left_m_per_pulse", c.left_m_per_pulse},
       {"right_m_per_pulse", c.right_m_per_pulse},
-      {"right_pulses_per_round_left_stopped", result_.ed.right_pulses_per_round},
-      {"left_pulses_per_round_right_stopped", result_.ed.left_pulses_per_round},
+      {"right_pulses_per_round_left_stopped", result.ed.right_pulses_per_round},
+      {"left_pulses_per_round_right_stopped", result.ed.left_pulses_per_round},
       {"spin_pulses_per_round", spin_ppr},
-      {"straight_runs_accepted", static_cast<double>(result_.straight.accepted_runs.size())},
-      {"elapsed_s", elapsedS()}};
+      {"straight_runs_accepted", static_cast<double>(result.straight.accepted_runs.size())},
+      {"elapsed_s", elapsed_s}};
   r.log = "Ed " + formatNumber(c.Ed, 5) + ", wheelbase " + formatNumber(c.wheelbase_m, 5) +
           " m (Eb " + formatNumber(c.Eb, 4) + "), c_L " +
           formatNumber(1000 * c.left_m_per_pulse, 5) + " mm, c_R " +
           formatNumber(1000 * c.right_m_per_pulse, 5) + " mm per pulse, " +
-          formatNumber(elapsedS(), 4) + " s";
+          formatNumber(elapsed_s, 4) + " s";
   return r;
+}
+
+StageResult UahRun::finish(const StageOutput& output) {
+  return writeUahStageFile(output, result_, turns_, elapsedS());
 }
 
 }  // namespace odometry

@@ -18,8 +18,9 @@ RunReplay::RunReplay(RunReplayOptions options)
     : options_(std::move(options)), recorder_(options_.veh, options_.stages) {
   recorder_.setReplayOf(options_.recording);
   for (const std::string& s : options_.stages)
-    if (s != "camera" && s != "wheels")
-      throw ConfigError("stage '" + s + "': a replay recomputes the camera and wheel stages");
+    if (s != "camera" && s != "wheels" && s != "odometry")
+      throw ConfigError("stage '" + s +
+                        "': a replay recomputes the camera, wheel and odometry stages");
   // Given intrinsics that cannot be read fail before the recording is read.
   if (!options_.intrinsics_file.empty()) loadCameraInfoYaml(options_.intrinsics_file);
 }
@@ -103,6 +104,17 @@ void RunReplay::addRecordedStatus(const report::StatusUpdate& recorded) {
   if (recorder_.ended()) return;
   const std::string& stage = current();
   if (recorded.phase.rfind(stage + "/", 0) != 0) return;
+  const bool ended = recorded.state == State::kDone || recorded.state == State::kFailed;
+  if (stage == "odometry") {
+    // Recomputed from the whole recording at the recorded stage's end.
+    if (!odometry_started_ && recorded.phase != stage + "/wait" && !ended) {
+      odometry_started_ = true;
+      log("odometry: the recorded stage began: replaying it at its end");
+      status(recorded.stamp_s, State::kRunning, "replay", "replaying the recorded stage", {});
+    }
+    if (ended) finishOdometry(recorded.stamp_s);
+    return;
+  }
   if (!stage_ && recorded.phase != stage + "/wait") build(recorded.stamp_s);
   if (recorded.progress >= 0 && recorded.progress <= 1)
     recorded_progress_ = std::max(recorded_progress_, recorded.progress);
@@ -111,7 +123,7 @@ void RunReplay::addRecordedStatus(const report::StatusUpdate& recorded) {
     const StageStatus s = stage_->status();
     status(recorded.stamp_s, State::kRunning, s.step, s.text, s.figures);
   }
-  if (recorded.state != State::kDone && recorded.state != State::kFailed) return;
+  if (!ended) return;
   if (recorded.state == State::kFailed)
     log("the recorded " + noun(stage) + " stage FAILED (" + recorded.failure_reason +
         "); recomputing what it did");
@@ -164,7 +176,6 @@ void RunReplay::build(double stamp_s) {
 }
 
 void RunReplay::finishStage(double stamp_s) {
-  const std::string stage = current();
   try {
     if (wheel_) {
       if (!wheel_->hasIntrinsics())
@@ -186,15 +197,31 @@ void RunReplay::finishStage(double stamp_s) {
     status(stamp_s, State::kRunning, stage_->finishStep(), stage_->status().text, {});
     StageResult result = stage_->finish({options_.calibration_root, options_.veh});
     result.figures.emplace_back("frames_dropped", static_cast<double>(frames_dropped_));
-    const std::string text = result.text.empty() ? "wrote " + result.file : result.text;
-    status(stamp_s, State::kDone, "write", text, result.figures, result.file);
-    log(stage + ": DONE: " + text + (result.log.empty() ? "" : " (" + result.log + ")"));
-    if (stage == "camera" && options_.intrinsics_file.empty())
-      options_.intrinsics_file = result.file;
+    done(stamp_s, std::move(result));
   } catch (const Error& e) {
     fail(stamp_s, e.what());
+  }
+}
+
+void RunReplay::finishOdometry(double stamp_s) {
+  if (!odometry_started_) {
+    fail(stamp_s, "the recorded odometry stage ended before it began: nothing to replay");
     return;
   }
+  try {
+    if (!options_.odometry) throw ConfigError("the replay was given no odometry recomputation");
+    done(stamp_s, options_.odometry({options_.calibration_root, options_.veh}));
+  } catch (const Error& e) {
+    fail(stamp_s, e.what());
+  }
+}
+
+void RunReplay::done(double stamp_s, StageResult result) {
+  const std::string stage = current();
+  const std::string text = result.text.empty() ? "wrote " + result.file : result.text;
+  status(stamp_s, State::kDone, "write", text, result.figures, result.file);
+  log(stage + ": DONE: " + text + (result.log.empty() ? "" : " (" + result.log + ")"));
+  if (stage == "camera" && options_.intrinsics_file.empty()) options_.intrinsics_file = result.file;
   stage_.reset();
   sweep_ = nullptr;
   wheel_ = nullptr;
@@ -219,6 +246,7 @@ void RunReplay::endOfRecording() {
 
 std::string RunReplay::describe() const {
   if (recorder_.ended()) return "the replay ended";
+  if (current() == "odometry" && odometry_started_) return "odometry: following the recorded stage";
   if (!stage_) return "waiting for the recorded " + noun(current()) + " stage";
   return current() + ": " + stage_->status().text;
 }

@@ -19,6 +19,8 @@
 #include "autocal/exit_codes.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/odometry/uah_replay.h"
+#include "autocal/odometry/uah_run.h"
 #include "autocal/physical_range.h"
 #include "autocal/replay/run_replay.h"
 #include "autocal/report/summary.h"
@@ -32,21 +34,25 @@ namespace fs = std::filesystem;
 using namespace autocal;
 
 const char* kUsage =
-    "usage: replay BAG --veh NAME [--calibration-root DIR] [--stages camera,wheels]\n"
+    "usage: replay BAG --veh NAME [--calibration-root DIR] [--stages camera,wheels,odometry]\n"
     "              [--board 7x5] [--square-m 0.031] [--camera-config FILE] [--tag-size-m 0.065]\n"
-    "              [--intrinsics FILE] [--duration-s S]\n"
-    "  Recomputes the camera and wheel stages of a recorded calibration run (record.launch, or\n"
-    "  calibrate_sim record:=true) with no robot and no ROS master, and writes their files and\n"
-    "  the run's report under the calibration root (default ./replay_calibrations).\n"
+    "              [--intrinsics FILE] [--straight-length-m L,...] [--duration-s S]\n"
+    "  Recomputes the camera, wheel and odometry stages of a recorded calibration run\n"
+    "  (record.launch, or calibrate_sim record:=true) with no robot and no ROS master, and writes\n"
+    "  their files and the run's report under the calibration root (./replay_calibrations).\n"
     "  --veh: the recorded robot's name (the namespace of its topics).\n"
     "  --board, --square-m, --camera-config, --tag-size-m: as the live run was given them.\n"
-    "  --stages: the stages replayed (wheels alone needs --intrinsics, a camera_info YAML).\n"
+    "  --stages: the stages replayed (default: those the recording holds; wheels without camera\n"
+    "  needs --intrinsics, a camera_info YAML).\n"
+    "  --straight-length-m: the odometry stage's straight runs' true lengths (default: the\n"
+    "  recorded ones), once for every run or once per run.\n"
     "  --duration-s: read only this many seconds of the recording (0: all of it).\n"
     "  Exits 0 when the replayed run succeeded, 1 when it failed, 64 on a bad argument.\n";
 
 struct Args {
   std::string bag, veh, root, board, camera_config, intrinsics;
-  std::vector<std::string> stages = {"camera", "wheels"};
+  std::vector<std::string> stages;  ///< empty: those the recording holds
+  std::vector<double> lengths_m;
   double square_m = 0, tag_size_m = 0, duration_s = 0;
   bool help = false;
 };
@@ -84,6 +90,12 @@ Args parseArgs(int argc, char** argv) {
       a.tag_size_m = parseNumberArg(flag, value);
     } else if (flag == "--intrinsics") {
       a.intrinsics = value;
+    } else if (flag == "--straight-length-m") {
+      for (const std::string& item : splitCommaList(value)) {
+        const double l = parseNumberArg(flag, item);
+        if (l <= 0) throw UsageError(flag + ": a length must be > 0 [m], got '" + item + "'");
+        a.lengths_m.push_back(l);
+      }
     } else if (flag == "--duration-s") {
       a.duration_s = parseNumberArg(flag, value);
     } else {
@@ -94,24 +106,41 @@ Args parseArgs(int argc, char** argv) {
   if (a.bag.empty()) throw UsageError("the recording (BAG) is required");
   if (a.veh.empty() || a.veh.find('/') != std::string::npos)
     throw UsageError("--veh NAME (the recorded robot's namespace, without '/') is required");
-  if (a.stages.empty()) throw UsageError("--stages: name camera, wheels or both");
   if (a.duration_s < 0) throw UsageError("--duration-s must be >= 0");
   if (a.square_m < 0 || a.tag_size_m < 0)
     throw UsageError("--square-m and --tag-size-m must be > 0");
   // A length in other units than metres is refused before the bag is read.
-  for (const std::string& slip :
-       {a.square_m > 0 ? outOfRange("--square-m", a.square_m, ranges::kBoardSquare) : "",
-        a.tag_size_m > 0 ? outOfRange("--tag-size-m", a.tag_size_m, ranges::kTagSize) : ""})
+  std::vector<std::string> slips = {
+      a.square_m > 0 ? outOfRange("--square-m", a.square_m, ranges::kBoardSquare) : "",
+      a.tag_size_m > 0 ? outOfRange("--tag-size-m", a.tag_size_m, ranges::kTagSize) : ""};
+  for (const double l : a.lengths_m)
+    slips.push_back(outOfRange("--straight-length-m", l, ranges::kStraightRun));
+  for (const std::string& slip : slips)
     if (!slip.empty()) throw UsageError(slip);
   return a;
 }
 
+/// The odometry stage recomputed from the whole recording (the nodes' defaults for the nominal
+/// robot; the resolution from the encoder messages), as `uah --bag` does.
+StageResult replayOdometry(const Args& a, const StageOutput& output) {
+  ros_layer::Recording recording(a.bag);
+  const ros_layer::UahBag bag = ros_layer::readUahRecording(recording, a.veh);
+  odometry::UahReplayOptions options;
+  // The nominal robot of odometry_calibration_node's defaults (~wheel_radius_m, ~wheelbase_m).
+  options.run.nominal =
+      odometry::DiffDriveParams::fromWheel(2 * 0.0318, bag.ticks_per_revolution, 0.1);
+  options.straight_lengths_m = a.lengths_m;
+  const odometry::UahReplayResult r = odometry::replayUah(bag.recording, options);
+  return odometry::writeUahStageFile(output, r.result, r.turns, r.recording_s);
+}
+
 /// The replay's options: the nodes' defaults with what the live run was given.
-replay::RunReplayOptions replayOptions(const Args& a) {
+replay::RunReplayOptions replayOptions(const Args& a, const std::vector<std::string>& stages) {
   replay::RunReplayOptions o;
   o.veh = a.veh;
   o.calibration_root = a.root;
-  o.stages = a.stages;
+  o.stages = stages;
+  o.odometry = [a](const StageOutput& output) { return replayOdometry(a, output); };
   o.recording = a.bag;
   o.intrinsics_file = a.intrinsics;
   const std::string config =
@@ -136,9 +165,20 @@ int run(int argc, char** argv) {
     return 0;
   }
   ros::Time::init();
-  for (const char* folder : {"camera_intrinsic", "kinematics", "report"})
+  for (const char* folder : {"camera_intrinsic", "kinematics", "odometry", "report"})
     checkWritableFolder((fs::path(args.root) / folder).string());
-  replay::RunReplay replay(replayOptions(args));
+  // The stages: those asked, else those whose recorded statuses the recording holds.
+  std::vector<std::string> stages = args.stages;
+  if (stages.empty()) {
+    try {
+      ros_layer::Recording recording(args.bag);
+      stages = ros_layer::recordedStages(recording, args.veh);
+    } catch (const InputError&) {
+      // Said below, in the report.
+    }
+    if (stages.empty()) stages = {"camera", "wheels"};
+  }
+  replay::RunReplay replay(replayOptions(args, stages));
   const std::string report_dir = (fs::path(args.root) / "report" / args.veh).string();
   const auto started = std::chrono::steady_clock::now();
   try {

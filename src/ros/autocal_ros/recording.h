@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/odometry/uah_replay.h"
 #include "autocal/replay/run_replay.h"
 
 namespace autocal {
@@ -47,6 +48,10 @@ class Recording {
 /// recording has none.
 std::map<std::string, std::set<double>> framesUsed(Recording& recording, const std::string& veh);
 
+/// The calibration stages ("camera", "wheels", "odometry", in run order) whose recorded statuses
+/// of robot `veh` go past "<stage>/wait".
+std::vector<std::string> recordedStages(Recording& recording, const std::string& veh);
+
 /// What feedRecording read.
 struct RecordingFeed {
   int messages = 0;
@@ -64,6 +69,18 @@ struct RecordingFeed {
 /// be read to its end or a topic of another type.
 RecordingFeed feedRecording(Recording& recording, const std::string& veh, replay::RunReplay& replay,
                             double duration_s, const std::function<void(double share)>& progress);
+
+/// What the UAH odometry stage needs of a recording of robot `veh`: its encoders, range readings,
+/// wheels_cmd, calibration/status and the straight lengths given to it
+/// (odometry_calibration_node/straight_length), each message at its header stamp (a stamp of 0:
+/// see readUahRecording's comment), the encoders merged in stamp order; and the encoders'
+/// resolution. Throws InputError naming a missing topic, a topic of another type, a bag that
+/// cannot be read to its end, or a bag with no reading of both encoders.
+struct UahBag {
+  odometry::UahRecording recording;
+  int ticks_per_revolution = 0;
+};
+UahBag readUahRecording(Recording& recording, const std::string& veh);
 
 }  // namespace ros_layer
 }  // namespace autocal

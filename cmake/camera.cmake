@@ -3,6 +3,7 @@ target_sources(autocal_camera PRIVATE
   src/core/camera/chessboard.cpp
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp
+  src/core/camera/projection_uncertainty.cpp
   src/core/camera/camera_config.cpp
   src/core/camera/calibration_files.cpp
   src/core/camera/wheel_turn.cpp

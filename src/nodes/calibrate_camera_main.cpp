@@ -278,6 +278,13 @@ int run(const Args& args) {
   for (size_t i = 0; i < in.distortion_coefficients.size(); ++i)
     std::printf(" %.6f", in.distortion_coefficients[i]);
   std::printf("\nRMS reprojection error: %.4f px\n", result.rms_px);
+  if (result.uncertainty.valid) {
+    const camera::ProjectionUncertainty& pu = result.uncertainty;
+    std::printf(
+        "projection uncertainty over the image (%dx%d grid, corner noise %.3f px): RMS %.3f px, "
+        "worst %.3f px, lower half worst %.3f px\n",
+        pu.cols, pu.rows, pu.corner_noise_px, pu.rms_px, pu.worst_px, pu.lower_half_worst_px);
+  }
   std::printf("views used: %zu of %zu %s (%zu novel; %d frames)\n", result.used_views.size(),
               views.size(), config.selection.keep_sharp_views ? "sharp views" : "novel views",
               collector.views().size(), collector.frames());

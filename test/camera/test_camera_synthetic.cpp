@@ -3,7 +3,9 @@
 // that must be refused with a clear reason.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -250,7 +252,8 @@ TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
 TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
   const Truth t;
   const auto views = syntheticViews(t, 10, 0.2, 10);
-  const HoldoutEvaluation ours = leaveOneOut(views, kImage, testBoard(), options(), HoldoutMethod::kAutocal);
+  const HoldoutEvaluation ours =
+      leaveOneOut(views, kImage, testBoard(), options(), HoldoutMethod::kAutocal);
   const HoldoutEvaluation plain =
       leaveOneOut(views, kImage, testBoard(), options(), HoldoutMethod::kPlainOpenCv);
   EXPECT_EQ(ours.fold_rms_px.size(), 10u);
@@ -261,6 +264,138 @@ TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
 
 // ---------------------------------------------------------------------------------------------
 // Rendered images.
+namespace {
+
+/// Board poses seen whole by the true camera, their centres at image rows within [row_min,
+/// row_max] [px]; fixed by `seed`.
+struct Pose {
+  cv::Vec3d rvec, tvec;
+};
+std::vector<Pose> boardPoses(const Truth& t, int count, double row_min, double row_max,
+                             unsigned seed, double distance_m = 0.45) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1), v(0, 1);
+  const std::vector<cv::Point3f> board = testBoard().points();
+  const cv::Point3f centre(4 * kSquare, 2.5 * kSquare, 0);
+  std::vector<Pose> poses;
+  while (static_cast<int>(poses.size()) < count) {
+    const double z = distance_m + 0.2 * u(rng);
+    const cv::Vec3d rvec(0.6 * u(rng), 0.6 * u(rng), 0.3 * u(rng));
+    cv::Matx33d r;
+    cv::Rodrigues(rvec, r);
+    const double px = 320 + 200 * u(rng), py = row_min + (row_max - row_min) * v(rng);
+    const cv::Vec3d c_cam((px - t.k(0, 2)) / t.k(0, 0) * z, (py - t.k(1, 2)) / t.k(1, 1) * z, z);
+    const cv::Vec3d tvec = c_cam - r * cv::Vec3d(centre.x, centre.y, centre.z);
+    std::vector<cv::Point2f> img;
+    cv::projectPoints(board, rvec, tvec, cv::Mat(t.k), cv::Mat(t.d), img);
+    bool inside = true;
+    for (const auto& p : img)
+      inside = inside && p.x > 5 && p.y > 5 && p.x < kImage.width - 5 && p.y < kImage.height - 5;
+    if (inside) poses.push_back({rvec, tvec});
+  }
+  return poses;
+}
+
+/// The corners of the poses with Gaussian noise of `noise_px`, drawn with `seed`.
+std::vector<std::vector<cv::Point2f>> observe(const Truth& t, const std::vector<Pose>& poses,
+                                              double noise_px, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0, noise_px);
+  std::vector<std::vector<cv::Point2f>> views;
+  for (const Pose& pose : poses) {
+    std::vector<cv::Point2f> img;
+    cv::projectPoints(testBoard().points(), pose.rvec, pose.tvec, cv::Mat(t.k), cv::Mat(t.d), img);
+    for (auto& p : img) {
+      p.x += static_cast<float>(n(rng));
+      p.y += static_cast<float>(n(rng));
+    }
+    views.push_back(img);
+  }
+  return views;
+}
+
+/// The true projection error at `pixel`: its true ray projected with the calibrated model [px].
+double trueError(const Truth& t, const CameraIntrinsics& calibrated, const cv::Point2d& pixel) {
+  std::vector<cv::Point2d> raw{pixel}, normalised, projected;
+  cv::undistortPoints(raw, normalised, cv::Mat(t.k), cv::Mat(t.d));
+  const std::vector<cv::Point3d> ray{{normalised[0].x, normalised[0].y, 1.0}};
+  cv::projectPoints(ray, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(calibrated.cameraMatrix()),
+                    cv::Mat(calibrated.distortion_coefficients), projected);
+  return std::hypot(projected[0].x - pixel.x, projected[0].y - pixel.y);
+}
+
+}  // namespace
+
+// The predicted projection uncertainty is honest: over repeated calibrations from the same poses
+// with new corner noise, each grid pixel's true projection error lies within 3 sigma of the
+// prediction in at least 95 % of the cases, and the spread of the errors is the predicted one
+// (neither a prediction that is far too wide nor one that is too narrow passes).
+TEST(CameraUncertainty, PredictionMatchesRepeatedCalibrations) {
+  const Truth t;
+  const std::vector<Pose> poses = boardPoses(t, 15, 90, 390, 7);
+  CalibrationOptions o = options();
+  o.select_distortion_terms = false;  // the same model in every trial
+  const int trials = 30;
+  std::vector<double> squared, predicted_squared;
+  int within = 0, cases = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    const CalibrationResult r =
+        calibrate(observe(t, poses, 0.3, 100 + trial), kImage, testBoard(), o);
+    const ProjectionUncertainty& u = r.uncertainty;
+    ASSERT_TRUE(u.valid);
+    ASSERT_EQ(u.sigma_px.size(), static_cast<size_t>(u.cols * u.rows));
+    EXPECT_NEAR(u.corner_noise_px, 0.3, 0.03);
+    if (squared.empty()) squared.assign(u.sigma_px.size(), 0), predicted_squared = squared;
+    for (int row = 0; row < u.rows; ++row) {
+      for (int col = 0; col < u.cols; ++col) {
+        const size_t i = static_cast<size_t>(row * u.cols + col);
+        const cv::Point2d pixel((col + 0.5) * kImage.width / u.cols,
+                                (row + 0.5) * kImage.height / u.rows);
+        const double e = trueError(t, r.intrinsics, pixel);
+        squared[i] += e * e / trials;
+        predicted_squared[i] += u.sigma_px[i] * u.sigma_px[i] / trials;
+        within += e <= 3 * u.sigma_px[i];
+        ++cases;
+      }
+    }
+  }
+  const double share = static_cast<double>(within) / cases;
+  // The 2-D error's RMS against the worst direction's sigma: between 1 (all the error in one
+  // direction) and sqrt(2) (round) for an honest prediction.
+  std::vector<double> ratio;
+  for (size_t i = 0; i < squared.size(); ++i)
+    ratio.push_back(std::sqrt(squared[i] / predicted_squared[i]));
+  std::sort(ratio.begin(), ratio.end());
+  const double median = ratio[ratio.size() / 2];
+  std::printf("within 3 sigma: %.1f %% of %d; error RMS / sigma: median %.2f (%.2f .. %.2f)\n",
+              100 * share, cases, median, ratio.front(), ratio.back());
+  EXPECT_GE(share, 0.95);
+  EXPECT_GT(median, 0.7);
+  EXPECT_LT(median, 1.6);
+}
+
+// Small boards seen only in a band of the upper half (as the robot's sweep sees them) leave the
+// whole image, and most of all the lower half's corners (the floor a lane follower looks at),
+// uncertain, and the figures say so.
+TEST(CameraUncertainty, UpperHalfViewsLeaveTheLowerHalfUncertain) {
+  const Truth t;
+  CalibrationOptions o = options();
+  o.select_distortion_terms = false;
+  const CalibrationResult whole =
+      calibrate(observe(t, boardPoses(t, 15, 90, 390, 7), 0.2, 1), kImage, testBoard(), o);
+  const CalibrationResult upper =
+      calibrate(observe(t, boardPoses(t, 15, 60, 130, 7, 0.9), 0.2, 1), kImage, testBoard(), o);
+  const ProjectionUncertainty &w = whole.uncertainty, &u = upper.uncertainty;
+  ASSERT_TRUE(w.valid && u.valid);
+  std::printf(
+      "boards over the image: worst %.3f px, lower half %.3f px, RMS %.3f px; small boards in "
+      "the upper band: %.3f, %.3f, %.3f px\n",
+      w.worst_px, w.lower_half_worst_px, w.rms_px, u.worst_px, u.lower_half_worst_px, u.rms_px);
+  EXPECT_GT(u.lower_half_worst_px, 3 * w.lower_half_worst_px);
+  EXPECT_EQ(u.lower_half_worst_px, u.worst_px);
+  EXPECT_GT(u.rms_px, 3 * w.rms_px);
+}
+
 namespace {
 
 // A board texture: (cols+1) x (rows+1) squares of `s` px and a white margin of one square.
@@ -367,7 +502,8 @@ TEST(CameraImages, BlurredViewIsRefused) {
   cv::GaussianBlur(sharp, blurred, cv::Size(0, 0), 3.0);
   // Horizontal motion blur over 12 px.
   cv::blur(sharp, motion, cv::Size(12, 1));
-  const auto corners = detectChessboards(sharp, BoardSpec(), ChessboardDetectorOptions())[0].corners;
+  const auto corners =
+      detectChessboards(sharp, BoardSpec(), ChessboardDetectorOptions())[0].corners;
   const double w_sharp = edgeWidthPx(sharp, corners), w_blur = edgeWidthPx(blurred, corners),
                w_motion = edgeWidthPx(motion, corners);
   EXPECT_LT(w_sharp, 3.0);

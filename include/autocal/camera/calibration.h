@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "autocal/camera/chessboard.h"
+#include "autocal/camera/projection_uncertainty.h"
 #include "autocal/camera_intrinsics.h"
 #include "autocal/distortion_model.h"
 
@@ -85,6 +86,8 @@ struct CalibrationResult {
   double selection_holdout_rms_px = 0;
   /// Why the terms were chosen, e.g. "k3 = 0.16 +- 0.13 (t 1.3 < 3): fixed".
   std::string selection_reason;
+  /// How sure the result is of its projection over the whole image (not valid for equidistant).
+  ProjectionUncertainty uncertainty;
 };
 
 /// Calibrates from views (corners in pattern order). Throws InputError for unusable corners (NaN,

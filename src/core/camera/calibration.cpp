@@ -495,6 +495,10 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     result.per_view_rms_px.push_back(
         rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
   }
+  // The free parameters are those with a standard deviation (OpenCV gives a fixed one 0).
+  std::vector<bool> fitted;
+  for (const double s : f.std_devs) fitted.push_back(s > 0);
+  result.uncertainty = projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted);
   return result;
 }
 

@@ -39,14 +39,21 @@ StageResult writeCameraStageFile(const StageOutput& output, const CameraInfoForm
 
 Figures calibrationFigures(const CalibrationResult& result) {
   const CameraIntrinsics& in = result.intrinsics;
-  return {{"fx", in.fx},
-          {"fy", in.fy},
-          {"cx", in.cx},
-          {"cy", in.cy},
-          {"k1", in.distortion_coefficients[0]},
-          {"k2", in.distortion_coefficients[1]},
-          {"rms_px", result.rms_px},
-          {"views", static_cast<double>(result.used_views.size())}};
+  Figures f = {{"fx", in.fx},
+               {"fy", in.fy},
+               {"cx", in.cx},
+               {"cy", in.cy},
+               {"k1", in.distortion_coefficients[0]},
+               {"k2", in.distortion_coefficients[1]},
+               {"rms_px", result.rms_px},
+               {"views", static_cast<double>(result.used_views.size())}};
+  const ProjectionUncertainty& u = result.uncertainty;
+  if (u.valid) {
+    f.emplace_back("uncertainty_rms_px", u.rms_px);
+    f.emplace_back("uncertainty_worst_px", u.worst_px);
+    f.emplace_back("uncertainty_lower_half_worst_px", u.lower_half_worst_px);
+  }
+  return f;
 }
 
 namespace fs = std::filesystem;
@@ -88,7 +95,20 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
     << "}\n";
   y << "distortion_model: " << distortionModelName(result.intrinsics.distortion_model) << "\n";
   y << "rms_px: " << formatNumber(result.rms_px) << "\nfitted_terms: \"" << result.fitted_terms
-    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\nviews:\n";
+    << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\n";
+  const ProjectionUncertainty& pu = result.uncertainty;
+  if (pu.valid) {
+    y << "projection_uncertainty:\n  grid: [" << pu.cols << ", " << pu.rows
+      << "]\n  corner_noise_px: " << formatNumber(pu.corner_noise_px, 4)
+      << "\n  rms_px: " << formatNumber(pu.rms_px, 4)
+      << "\n  worst_px: " << formatNumber(pu.worst_px, 4)
+      << "\n  lower_half_worst_px: " << formatNumber(pu.lower_half_worst_px, 4)
+      << "\n  sigma_px: [";
+    for (size_t i = 0; i < pu.sigma_px.size(); ++i)
+      y << (i ? ", " : "") << formatNumber(pu.sigma_px[i], 4);
+    y << "]\n";
+  }
+  y << "views:\n";
   for (size_t u = 0; u < result.used_views.size(); ++u) {
     const CalibrationView& v = views.at(static_cast<size_t>(result.used_views[u]));
     y << "  - image: " << viewImageName(u) << "\n    source: \"" << v.source

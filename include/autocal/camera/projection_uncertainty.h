@@ -1,0 +1,50 @@
+// How sure a calibration is of where it projects, over the whole image: the fit's covariance,
+// from the observed corner noise, carried to each pixel of a grid. Each board corner's residual is
+// taken as independent noise of one standard deviation sigma (estimated from the residuals, with
+// the fit's degrees of freedom); the covariance of the intrinsics is the marginal block of
+// sigma^2 (J^T J)^-1 over the intrinsics and every view's pose (J: the residuals' Jacobian at the
+// optimum); a grid pixel's ray, fixed in the camera frame, is projected with the intrinsics and
+// its 2x2 covariance is G Sigma G^T (G: the projection's Jacobian with respect to the intrinsics).
+// This is the propagation mrcal makes (its documentation, "Projection uncertainty"), without its
+// compensation of the reference frame's motion between calibrations: it is the uncertainty of the
+// projection difference as the simulator measures it (a ray fixed in the camera frame). ROS-free.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "autocal/camera_intrinsics.h"
+
+namespace autocal {
+namespace camera {
+
+struct ProjectionUncertainty {
+  bool valid = false;      ///< false: the model or the fit gives none (equidistant)
+  int cols = 0, rows = 0;  ///< the grid over the image (cell centres)
+  /// Per grid cell, row-major: the standard deviation of the projection in its worst direction
+  /// [px] (the square root of the covariance's larger eigenvalue).
+  std::vector<double> sigma_px;
+  double corner_noise_px = 0;      ///< sigma estimated from the residuals [px]
+  double worst_px = 0;             ///< the largest sigma_px
+  double rms_px = 0;               ///< root mean square of sigma_px over the grid
+  double lower_half_worst_px = 0;  ///< the largest sigma_px in the lower half (the floor)
+};
+
+/// The projection uncertainty of `intrinsics`, fitted to `object_points` seen at
+/// `image_points` from the poses `rvecs`, `tvecs` (the fit's, one per view). `fitted[i]` says
+/// whether parameter i of [fx fy cx cy, the distortion terms in their order] was free in the fit
+/// (a fixed one has no uncertainty). Plumb_bob and rational_polynomial; otherwise not valid.
+ProjectionUncertainty projectionUncertainty(
+    const std::vector<std::vector<cv::Point3f>>& object_points,
+    const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
+    const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& intrinsics,
+    const std::vector<bool>& fitted, int cols = 16, int rows = 12);
+
+/// The 2x2 covariance of projecting the ray of `pixel` (fixed in the camera frame) with
+/// intrinsics whose covariance is `cov` over the free parameters `fitted`.
+cv::Matx22d projectionCovariance(const CameraIntrinsics& intrinsics,
+                                 const std::vector<bool>& fitted, const cv::Mat& cov,
+                                 const cv::Point2d& pixel);
+
+}  // namespace camera
+}  // namespace autocal

@@ -337,6 +337,52 @@ TEST(TruePath, InTheBelievedPathsFrameFromTheFirstEncoderReading) {
   EXPECT_NEAR(path.back().pose.yaw_rad, 0.0, 1e-12);
 }
 
+// The audit's projection uncertainty is read and drawn as a map beside the coverage: a 2x2 grid,
+// its upper cells certain (green), its lower ones not (red); an audit without one draws none.
+TEST(Report, ShowsTheProjectionUncertaintyMap) {
+  const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report_uncertainty";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string head = "image: {width: 640, height: 480}\nrms_px: 0.1\n";
+  {
+    std::ofstream f(dir / "with.yaml");
+    f << head
+      << "projection_uncertainty:\n  grid: [2, 2]\n  corner_noise_px: 0.1\n  rms_px: 1\n"
+         "  worst_px: 2\n  lower_half_worst_px: 2\n  sigma_px: [0, 0.05, 1.5, 2]\nviews: []\n";
+    std::ofstream(dir / "without.yaml") << head << "views: []\n";
+    std::ofstream(dir / "short.yaml")
+        << head << "projection_uncertainty:\n  grid: [2, 2]\n  worst_px: 2\n"
+        << "  lower_half_worst_px: 2\n  sigma_px: [0, 1]\n";
+  }
+  const ViewsAudit audit = loadViewsAudit((dir / "with.yaml").string());
+  ASSERT_EQ(audit.uncertainty_px.size(), 4u);
+  EXPECT_EQ(audit.uncertainty_cols, 2);
+  EXPECT_DOUBLE_EQ(audit.uncertainty_lower_half_worst_px, 2);
+  EXPECT_TRUE(loadViewsAudit((dir / "without.yaml").string()).uncertainty_px.empty());
+  EXPECT_THROW(loadViewsAudit((dir / "short.yaml").string()), ConfigError);
+  RunRecorder r("bot", {"camera"});
+  r.addStatus(status(1, "camera/write", kDone, "wrote c.yaml", {{"rms_px", 0.1}}));
+  auto count = [](const cv::Mat& sheet, cv::Rect area, cv::Scalar lo, cv::Scalar hi) {
+    cv::Mat mask;
+    cv::inRange(sheet(area), lo, hi, mask);
+    return cv::countNonZero(mask);
+  };
+  const cv::Rect upper(1310, 95, 270, 100), lower(1310, 200, 270, 95);
+  const cv::Scalar green_lo(0, 190, 0), green_hi(10, 215, 30), red_lo(0, 0, 220),
+      red_hi(10, 10, 240);
+  const cv::Mat with = cv::imread(
+      writeReport((dir / "a").string(), r.record(), (dir / "with.yaml").string(), ReportOptions())
+          .sheet_png);
+  EXPECT_GT(count(with, upper, green_lo, green_hi), 20000);
+  EXPECT_GT(count(with, lower, red_lo, red_hi), 20000);
+  EXPECT_EQ(count(with, upper, red_lo, red_hi), 0);
+  const cv::Mat without = cv::imread(writeReport((dir / "b").string(), r.record(),
+                                                 (dir / "without.yaml").string(), ReportOptions())
+                                         .sheet_png);
+  EXPECT_EQ(count(without, lower, red_lo, red_hi), 0);
+  fs::remove_all(dir);
+}
+
 TEST(Report, ShowsTheGroundViewOfTheExtrinsicsWhenGiven) {
   const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report_ground";
   fs::remove_all(dir);

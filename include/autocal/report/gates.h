@@ -22,6 +22,12 @@ struct ViewsAudit {
   cv::Size image_size;
   double rms_px = 0;
   std::vector<AuditView> views;
+  /// The projection uncertainty over a cols x rows grid (views.yaml projection_uncertainty):
+  /// each cell's standard deviation in its worst direction [px], row-major; empty when the audit
+  /// has none.
+  int uncertainty_cols = 0, uncertainty_rows = 0;
+  std::vector<double> uncertainty_px;
+  double uncertainty_worst_px = 0, uncertainty_lower_half_worst_px = 0;
 };
 /// Reads the audit; throws ConfigError (file and line) on a malformed file, IoError when missing.
 ViewsAudit loadViewsAudit(const std::string& views_yaml);

@@ -24,6 +24,18 @@ ViewsAudit loadViewsAudit(const std::string& views_yaml) {
   YamlMap image = root.map("image");
   audit.image_size = {image.required<int>("width"), image.required<int>("height")};
   audit.rms_px = root.optional<double>("rms_px", 0.0);
+  if (root.has("projection_uncertainty")) {
+    YamlMap u = root.map("projection_uncertainty");
+    const std::vector<double> grid = u.required<std::vector<double>>("grid");
+    audit.uncertainty_px = u.required<std::vector<double>>("sigma_px");
+    if (grid.size() != 2 || grid[0] < 1 || grid[1] < 1 ||
+        audit.uncertainty_px.size() != static_cast<size_t>(grid[0] * grid[1]))
+      u.fail("sigma_px", "must hold grid[0] x grid[1] values");
+    audit.uncertainty_cols = static_cast<int>(grid[0]);
+    audit.uncertainty_rows = static_cast<int>(grid[1]);
+    audit.uncertainty_worst_px = u.required<double>("worst_px");
+    audit.uncertainty_lower_half_worst_px = u.required<double>("lower_half_worst_px");
+  }
   const fs::path dir = fs::path(views_yaml).parent_path();
   for (YamlMap& v : root.optionalMapList("views")) {
     AuditView view;

@@ -85,9 +85,9 @@ void drawGroundView(cv::Mat& sheet, cv::Rect area, const cv::Mat& ground) {
 
 void drawCoverage(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
   const double coverage = cornerCoverage(audit);
-  text(sheet,
-       "Image coverage by board corners: " + formatNumber(100 * coverage, 3) + " % of 8x6 cells",
-       {area.x, area.y - 8}, 0.55);
+  text(sheet, "Corner coverage", {area.x, area.y - 8}, 0.55);
+  text(sheet, formatNumber(100 * coverage, 3) + " % of the image's 8x6 cells",
+       {area.x, area.y + area.height + 18}, 0.45);
   cv::rectangle(sheet, area, kGrey);
   if (!audit.loaded || audit.image_size.width <= 0) return;
   const double s = std::min(double(area.width) / audit.image_size.width,
@@ -110,6 +110,41 @@ void drawCoverage(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
                  1, colour, cv::FILLED);
     }
   }
+}
+
+/// The projection uncertainty's grid as a map over the image: each cell coloured from green
+/// (0 px) through yellow to red (1 px and more), its value written in it.
+void drawUncertainty(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
+  const bool have = !audit.uncertainty_px.empty() && audit.image_size.width > 0;
+  text(sheet, "Projection uncertainty", {area.x, area.y - 8}, 0.55);
+  text(sheet,
+       have ? "worst " + formatNumber(audit.uncertainty_worst_px, 2) + " px, lower half " +
+                  formatNumber(audit.uncertainty_lower_half_worst_px, 2) + " px"
+            : std::string("none (no audit, or an equidistant model)"),
+       {area.x, area.y + area.height + 18}, 0.45);
+  cv::rectangle(sheet, area, kGrey);
+  if (!have) return;
+  const double s = std::min(double(area.width) / audit.image_size.width,
+                            double(area.height) / audit.image_size.height);
+  const cv::Rect frame(area.x, area.y, static_cast<int>(audit.image_size.width * s),
+                       static_cast<int>(audit.image_size.height * s));
+  const int cols = audit.uncertainty_cols, rows = audit.uncertainty_rows;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double v = audit.uncertainty_px[static_cast<size_t>(r * cols + c)];
+      const double t = std::min(1.0, std::max(0.0, v));  // 0 .. 1 px
+      // BGR: green (0, 200, 0) at 0, yellow (0, 220, 240) at 0.5, red (0, 0, 230) at 1.
+      const cv::Scalar colour(0, t < 0.5 ? 200 + 40 * t : 440 * (1 - t), t < 0.5 ? 480 * t : 240);
+      const cv::Rect cell(frame.x + frame.width * c / cols, frame.y + frame.height * r / rows,
+                          frame.width * (c + 1) / cols - frame.width * c / cols,
+                          frame.height * (r + 1) / rows - frame.height * r / rows);
+      cv::rectangle(sheet, cell, colour, cv::FILLED);
+    }
+  }
+  cv::rectangle(sheet, frame, kBlack);
+  text(sheet, "1 sigma, worst direction: green 0, yellow 0.5,", {area.x, area.y + area.height + 36},
+       0.38, kGrey);
+  text(sheet, "red 1 px and more", {area.x, area.y + area.height + 52}, 0.38, kGrey);
 }
 
 void drawPath(cv::Mat& sheet, cv::Rect area, const std::vector<PathPoint>& path,
@@ -193,8 +228,8 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   cv::Mat sheet(1040, 1600, CV_8UC3, kWhite);
   const bool ok = record.succeeded();
   const bool replay = !record.replay_of.empty();
-  text(sheet, "autocal self-calibration: " + record.vehicle + (replay ? " (REPLAY)" : ""),
-       {20, 36}, 0.9, kBlack, 2);
+  text(sheet, "autocal self-calibration: " + record.vehicle + (replay ? " (REPLAY)" : ""), {20, 36},
+       0.9, kBlack, 2);
   const std::vector<Gate> gates = evaluateGates(record, audit, options);
   const auto passed =
       std::count_if(gates.begin(), gates.end(), [](const Gate& g) { return g.passed; });
@@ -211,7 +246,8 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
 
   drawMosaic(sheet, cv::Rect(20, 95, 660, 540), audit);
   drawGroundView(sheet, cv::Rect(700, 95, 310, 300), ground_view);
-  drawCoverage(sheet, cv::Rect(1030, 95, 550, 413), audit);
+  drawCoverage(sheet, cv::Rect(1030, 95, 270, 203), audit);
+  drawUncertainty(sheet, cv::Rect(1310, 95, 270, 203), audit);
   drawPath(sheet, cv::Rect(20, 680, 620, 330), believedPath(record, options), truePath(record));
   drawIterations(sheet, cv::Rect(670, 680, 500, 330), record.wheel_iterations);
 

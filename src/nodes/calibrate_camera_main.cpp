@@ -285,6 +285,13 @@ int run(const Args& args) {
         "worst %.3f px, lower half worst %.3f px\n",
         pu.cols, pu.rows, pu.corner_noise_px, pu.rms_px, pu.worst_px, pu.lower_half_worst_px);
   }
+  if (result.halves.valid) {
+    const camera::HalvesCrossValidation& h = result.halves;
+    std::printf(
+        "halves of %d views each: projection difference RMS %.3f px, worst %.3f px; %.2f times "
+        "what their uncertainty allows (about 2 and more: the model does not explain all views)\n",
+        h.views_each, h.rms_px, h.worst_px, h.ratio);
+  }
   std::printf("views used: %zu of %zu %s (%zu novel; %d frames)\n", result.used_views.size(),
               views.size(), config.selection.keep_sharp_views ? "sharp views" : "novel views",
               collector.views().size(), collector.frames());

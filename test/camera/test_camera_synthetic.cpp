@@ -266,6 +266,18 @@ TEST(CameraSynthetic, HeldOutEvaluationOnSyntheticViews) {
 // Rendered images.
 namespace {
 
+/// The board's corners seen by the true camera from `pose`.
+std::vector<cv::Point2f> projectTruth(const Truth& t, const cv::Vec3d& rvec,
+                                      const cv::Vec3d& tvec) {
+  std::vector<cv::Point2f> img;
+  if (t.model == DistortionModel::kEquidistant) {
+    cv::fisheye::projectPoints(testBoard().points(), img, rvec, tvec, cv::Mat(t.k), cv::Mat(t.d));
+  } else {
+    cv::projectPoints(testBoard().points(), rvec, tvec, cv::Mat(t.k), cv::Mat(t.d), img);
+  }
+  return img;
+}
+
 /// Board poses seen whole by the true camera, their centres at image rows within [row_min,
 /// row_max] [px]; fixed by `seed`.
 struct Pose {
@@ -286,8 +298,7 @@ std::vector<Pose> boardPoses(const Truth& t, int count, double row_min, double r
     const double px = 320 + 200 * u(rng), py = row_min + (row_max - row_min) * v(rng);
     const cv::Vec3d c_cam((px - t.k(0, 2)) / t.k(0, 0) * z, (py - t.k(1, 2)) / t.k(1, 1) * z, z);
     const cv::Vec3d tvec = c_cam - r * cv::Vec3d(centre.x, centre.y, centre.z);
-    std::vector<cv::Point2f> img;
-    cv::projectPoints(board, rvec, tvec, cv::Mat(t.k), cv::Mat(t.d), img);
+    const std::vector<cv::Point2f> img = projectTruth(t, rvec, tvec);
     bool inside = true;
     for (const auto& p : img)
       inside = inside && p.x > 5 && p.y > 5 && p.x < kImage.width - 5 && p.y < kImage.height - 5;
@@ -372,6 +383,39 @@ TEST(CameraUncertainty, PredictionMatchesRepeatedCalibrations) {
   EXPECT_GE(share, 0.95);
   EXPECT_GT(median, 0.7);
   EXPECT_LT(median, 1.6);
+}
+
+// Two calibrations from the two halves of the views (every other view) agree as their
+// uncertainties say when one lens explains all the views, and disagree far beyond them when it
+// does not: here every other view is seen by a lens whose focal length is 3 % longer (a lens
+// refocused during the sweep).
+TEST(CameraUncertainty, HalvesAgreeOnlyWhenOneLensExplainsTheViews) {
+  CalibrationOptions o = options();
+  o.select_distortion_terms = false;
+  const Truth t;
+  const std::vector<Pose> poses = boardPoses(t, 20, 60, 420, 3);
+  const CalibrationResult one = calibrate(observe(t, poses, 0.2, 5), kImage, testBoard(), o);
+  std::vector<std::vector<cv::Point2f>> views = observe(t, poses, 0.2, 5);
+  Truth longer = t;
+  longer.k(0, 0) *= 1.03;
+  longer.k(1, 1) *= 1.03;
+  const std::vector<std::vector<cv::Point2f>> seen_longer = observe(longer, poses, 0.2, 5);
+  for (size_t v = 1; v < views.size(); v += 2) views[v] = seen_longer[v];
+  const CalibrationResult moved = calibrate(views, kImage, testBoard(), o);
+  for (const auto* r : {&one, &moved})
+    std::printf(
+        "fit RMS %.3f px; halves of %d views: difference RMS %.3f px, worst %.3f px; "
+        "expected %.3f px; ratio %.2f\n",
+        r->rms_px, r->halves.views_each, r->halves.rms_px, r->halves.worst_px,
+        r->halves.expected_rms_px, r->halves.ratio);
+  ASSERT_TRUE(one.halves.valid && moved.halves.valid);
+  EXPECT_EQ(one.halves.views_each, 10);
+  EXPECT_GT(one.halves.ratio, 0.5);
+  EXPECT_LT(one.halves.ratio, 2.0);
+  EXPECT_GT(moved.halves.ratio, 3.0);
+  // Too few views to split: none.
+  EXPECT_FALSE(calibrate(observe(t, boardPoses(t, 7, 60, 420, 3), 0.2, 5), kImage, testBoard(), o)
+                   .halves.valid);
 }
 
 // Small boards seen only in a band of the upper half (as the robot's sweep sees them) leave the

@@ -88,6 +88,8 @@ struct CalibrationResult {
   std::string selection_reason;
   /// How sure the result is of its projection over the whole image (not valid for equidistant).
   ProjectionUncertainty uncertainty;
+  /// The fits of the two halves of the used views compared (not valid under 8 views).
+  HalvesCrossValidation halves;
 };
 
 /// Calibrates from views (corners in pattern order). Throws InputError for unusable corners (NaN,

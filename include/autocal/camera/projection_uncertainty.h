@@ -40,6 +40,29 @@ ProjectionUncertainty projectionUncertainty(
     const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& intrinsics,
     const std::vector<bool>& fitted, int cols = 16, int rows = 12);
 
+/// Two calibrations from disjoint halves of the views (every other view), with the same model and
+/// terms, compared over the grid: each pixel's ray under the first projected with the second. A
+/// difference well beyond what their uncertainties allow (ratio above about 2) says the model does
+/// not fit the lens, not the noise (mrcal's cross-validation).
+struct HalvesCrossValidation {
+  bool valid = false;  ///< false: too few views (8 at least), or no uncertainty for the model
+  int views_each = 0;
+  double rms_px = 0;    ///< the difference's RMS over the grid
+  double worst_px = 0;  ///< its largest
+  /// The RMS over the grid of sqrt(sigma_a^2 + sigma_b^2): what the difference should be if the
+  /// model fits.
+  double expected_rms_px = 0;
+  /// The RMS over the grid of each cell's difference over sqrt(sigma_a^2 + sigma_b^2): 1 to 1.4
+  /// when the model fits (the difference is noise), well above 2 when it does not. Per cell, so
+  /// that the well-determined middle of the image counts as much as its uncertain corners.
+  double ratio = 0;
+};
+
+/// The projection difference between two intrinsics over the cells of a cols x rows grid: each
+/// cell centre's ray under `a` projected with `b` [px], row-major (NaN where `a` has no ray).
+std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
+                                          int cols, int rows);
+
 /// The 2x2 covariance of projecting the ray of `pixel` (fixed in the camera frame) with
 /// intrinsics whose covariance is `cov` over the free parameters `fitted`.
 cv::Matx22d projectionCovariance(const CameraIntrinsics& intrinsics,

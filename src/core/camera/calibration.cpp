@@ -191,6 +191,58 @@ double crossValidate(const std::vector<Points3>& obj, const std::vector<Points2>
   return sum / std::max(1, count);
 }
 
+/// The fits of every other view against the rest (HalvesCrossValidation), started from `all`.
+HalvesCrossValidation crossValidateHalves(const std::vector<Points3>& obj,
+                                          const std::vector<Points2>& img, const cv::Size& size,
+                                          DistortionModel model, int flags,
+                                          const std::vector<bool>& fitted,
+                                          const CameraIntrinsics& all,
+                                          const ProjectionUncertainty& all_uncertainty) {
+  HalvesCrossValidation out;
+  if (obj.size() < 8 || !all_uncertainty.valid) return out;
+  std::vector<Points3> obj_half[2];
+  std::vector<Points2> img_half[2];
+  for (size_t v = 0; v < obj.size(); ++v) {
+    obj_half[v % 2].push_back(obj[v]);
+    img_half[v % 2].push_back(img[v]);
+  }
+  Fit half[2];
+  ProjectionUncertainty u[2];
+  try {
+    for (int h = 0; h < 2; ++h) {
+      half[h] = fit(obj_half[h], img_half[h], size, model, flags, &all);
+      u[h] = projectionUncertainty(obj_half[h], img_half[h], half[h].rvecs, half[h].tvecs,
+                                   half[h].intrinsics, fitted, all_uncertainty.cols,
+                                   all_uncertainty.rows);
+    }
+  } catch (const CalibrationError&) {
+    return out;  // a half too weak to fit: no cross-validation
+  }
+  if (!u[0].valid || !u[1].valid) return out;
+  const std::vector<double> d = projectionDifferences(half[0].intrinsics, half[1].intrinsics,
+                                                      all_uncertainty.cols, all_uncertainty.rows);
+  double sum = 0, expected = 0, normalised = 0;
+  int n = 0;
+  for (size_t i = 0; i < d.size(); ++i) {
+    if (!std::isfinite(d[i])) continue;
+    const double variance =
+        u[0].sigma_px[i] * u[0].sigma_px[i] + u[1].sigma_px[i] * u[1].sigma_px[i];
+    if (!(variance > 0)) continue;
+    sum += d[i] * d[i];
+    expected += variance;
+    normalised += d[i] * d[i] / variance;
+    out.worst_px = std::max(out.worst_px, d[i]);
+    ++n;
+  }
+  if (n == 0) return out;
+  out.views_each = static_cast<int>(obj_half[1].size());
+  out.rms_px = std::sqrt(sum / n);
+  out.expected_rms_px = std::sqrt(expected / n);
+  out.ratio = std::sqrt(normalised / n);
+  out.valid = true;
+  return out;
+}
+
 std::string fmt(const char* format, double a, double b = 0, double c = 0) {
   char buf[200];
   std::snprintf(buf, sizeof buf, format, a, b, c);
@@ -499,6 +551,8 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
   result.uncertainty = projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted);
+  result.halves = crossValidateHalves(obj, img, image_size, options.model, chosen.flags, fitted,
+                                      f.intrinsics, result.uncertainty);
   return result;
 }
 

@@ -53,6 +53,7 @@ Figures calibrationFigures(const CalibrationResult& result) {
     f.emplace_back("uncertainty_worst_px", u.worst_px);
     f.emplace_back("uncertainty_lower_half_worst_px", u.lower_half_worst_px);
   }
+  if (result.halves.valid) f.emplace_back("halves_ratio", result.halves.ratio);
   return f;
 }
 
@@ -107,6 +108,13 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
     for (size_t i = 0; i < pu.sigma_px.size(); ++i)
       y << (i ? ", " : "") << formatNumber(pu.sigma_px[i], 4);
     y << "]\n";
+  }
+  const HalvesCrossValidation& h = result.halves;
+  if (h.valid) {
+    y << "halves_cross_validation: {views_each: " << h.views_each
+      << ", rms_px: " << formatNumber(h.rms_px, 4) << ", worst_px: " << formatNumber(h.worst_px, 4)
+      << ", expected_rms_px: " << formatNumber(h.expected_rms_px, 4)
+      << ", ratio: " << formatNumber(h.ratio, 3) << "}\n";
   }
   y << "views:\n";
   for (size_t u = 0; u < result.used_views.size(); ++u) {

@@ -48,6 +48,26 @@ cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<b
                      c.at<double>(1, 1));
 }
 
+std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
+                                          int cols, int rows) {
+  std::vector<cv::Point2d> pixels, normalised, projected;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+      pixels.emplace_back((c + 0.5) * a.width / cols, (r + 0.5) * a.height / rows);
+  cv::undistortPoints(pixels, normalised, cv::Mat(a.cameraMatrix()),
+                      cv::Mat(a.distortion_coefficients));
+  std::vector<cv::Point3d> rays;
+  for (const cv::Point2d& n : normalised) rays.emplace_back(n.x, n.y, 1.0);
+  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(b.cameraMatrix()),
+                    cv::Mat(b.distortion_coefficients), projected);
+  std::vector<double> out;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const double d = std::hypot(projected[i].x - pixels[i].x, projected[i].y - pixels[i].y);
+    out.push_back(std::isfinite(d) ? d : std::nan(""));
+  }
+  return out;
+}
+
 ProjectionUncertainty projectionUncertainty(
     const std::vector<std::vector<cv::Point3f>>& object_points,
     const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,

@@ -37,6 +37,7 @@ part() {
   echo
   part scripts/bench/camera.sh
   part scripts/bench/camera_sweep.sh
+  part scripts/bench/camera_uncertainty.sh
   echo "## Wheels"
   echo
   part scripts/bench/wheels.sh

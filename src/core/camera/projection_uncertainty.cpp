@@ -9,8 +9,7 @@ namespace camera {
 
 namespace {
 
-/// The indices of the free parameters among [fx fy cx cy, distortion...] (projectPoints'
-/// Jacobian has them from column 6 on, after rvec and tvec).
+/// The indices of the free parameters among [fx fy cx cy, distortion...].
 std::vector<int> freeParameters(const std::vector<bool>& fitted) {
   std::vector<int> out;
   for (size_t i = 0; i < fitted.size(); ++i)
@@ -18,31 +17,66 @@ std::vector<int> freeParameters(const std::vector<bool>& fitted) {
   return out;
 }
 
-/// The columns `free` (offset by 6) of projectPoints' Jacobian, as a 2n x free.size() matrix.
+/// The columns `free` of an intrinsics Jacobian, as a 2n x free.size() matrix.
 cv::Mat intrinsicColumns(const cv::Mat& jacobian, const std::vector<int>& free) {
   cv::Mat a(jacobian.rows, static_cast<int>(free.size()), CV_64F);
-  for (size_t c = 0; c < free.size(); ++c)
-    jacobian.col(6 + free[c]).copyTo(a.col(static_cast<int>(c)));
+  for (size_t c = 0; c < free.size(); ++c) jacobian.col(free[c]).copyTo(a.col(static_cast<int>(c)));
   return a;
 }
 
-bool supported(const CameraIntrinsics& in) {
-  return in.distortion_model == DistortionModel::kPlumbBob ||
-         in.distortion_model == DistortionModel::kRationalPolynomial;
+bool fisheye(const CameraIntrinsics& in) {
+  return in.distortion_model == DistortionModel::kEquidistant;
 }
+
+/// Points projected with `in` from the pose, and the Jacobians of the projection with respect to
+/// the pose (2n x 6: rvec, tvec) and to the intrinsics (2n x (4 + terms): fx fy cx cy, terms).
+struct Projection {
+  std::vector<cv::Point2d> points;
+  cv::Mat pose, intrinsics;
+};
+Projection projectWithJacobians(const std::vector<cv::Point3d>& points, const cv::Mat& rvec,
+                                const cv::Mat& tvec, const CameraIntrinsics& in) {
+  const cv::Mat k(in.cameraMatrix()), d(in.distortion_coefficients);
+  Projection out;
+  cv::Mat jacobian;
+  if (fisheye(in)) {
+    // Columns: f (2), c (2), k1..k4, rvec (3), tvec (3), skew.
+    cv::fisheye::projectPoints(points, out.points, rvec, tvec, k, d, 0, jacobian);
+    cv::hconcat(jacobian.colRange(8, 11), jacobian.colRange(11, 14), out.pose);
+    out.intrinsics = jacobian.colRange(0, 8).clone();
+  } else {
+    // Columns: rvec (3), tvec (3), f (2), c (2), the terms.
+    cv::projectPoints(points, rvec, tvec, k, d, out.points, jacobian);
+    out.pose = jacobian.colRange(0, 6).clone();
+    out.intrinsics = jacobian.colRange(6, jacobian.cols).clone();
+  }
+  return out;
+}
+
+/// Each pixel's ray under `in`, as a point at depth 1 in the camera frame.
+std::vector<cv::Point3d> rays(const CameraIntrinsics& in, const std::vector<cv::Point2d>& pixels) {
+  std::vector<cv::Point2d> normalised;
+  if (fisheye(in)) {
+    cv::fisheye::undistortPoints(pixels, normalised, cv::Mat(in.cameraMatrix()),
+                                 cv::Mat(in.distortion_coefficients));
+  } else {
+    cv::undistortPoints(pixels, normalised, cv::Mat(in.cameraMatrix()),
+                        cv::Mat(in.distortion_coefficients));
+  }
+  std::vector<cv::Point3d> out;
+  for (const cv::Point2d& n : normalised) out.emplace_back(n.x, n.y, 1.0);
+  return out;
+}
+
+/// The camera frame's own pose: no rotation, no translation.
+cv::Mat zero3() { return cv::Mat::zeros(3, 1, CV_64F); }
 
 }  // namespace
 
 cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<bool>& fitted,
                                  const cv::Mat& cov, const cv::Point2d& pixel) {
-  const cv::Mat k(in.cameraMatrix()), d(in.distortion_coefficients);
-  std::vector<cv::Point2d> raw{pixel}, normalised;
-  cv::undistortPoints(raw, normalised, k, d);
-  const std::vector<cv::Point3d> ray{{normalised[0].x, normalised[0].y, 1.0}};
-  std::vector<cv::Point2d> projected;
-  cv::Mat jacobian;
-  cv::projectPoints(ray, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, d, projected, jacobian);
-  const cv::Mat g = intrinsicColumns(jacobian, freeParameters(fitted));
+  const Projection p = projectWithJacobians(rays(in, {pixel}), zero3(), zero3(), in);
+  const cv::Mat g = intrinsicColumns(p.intrinsics, freeParameters(fitted));
   const cv::Mat c = g * cov * g.t();
   return cv::Matx22d(c.at<double>(0, 0), c.at<double>(0, 1), c.at<double>(1, 0),
                      c.at<double>(1, 1));
@@ -50,16 +84,12 @@ cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<b
 
 std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
                                           int cols, int rows) {
-  std::vector<cv::Point2d> pixels, normalised, projected;
+  std::vector<cv::Point2d> pixels;
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c)
       pixels.emplace_back((c + 0.5) * a.width / cols, (r + 0.5) * a.height / rows);
-  cv::undistortPoints(pixels, normalised, cv::Mat(a.cameraMatrix()),
-                      cv::Mat(a.distortion_coefficients));
-  std::vector<cv::Point3d> rays;
-  for (const cv::Point2d& n : normalised) rays.emplace_back(n.x, n.y, 1.0);
-  cv::projectPoints(rays, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(b.cameraMatrix()),
-                    cv::Mat(b.distortion_coefficients), projected);
+  const std::vector<cv::Point2d> projected =
+      projectWithJacobians(rays(a, pixels), zero3(), zero3(), b).points;
   std::vector<double> out;
   for (size_t i = 0; i < pixels.size(); ++i) {
     const double d = std::hypot(projected[i].x - pixels[i].x, projected[i].y - pixels[i].y);
@@ -76,29 +106,26 @@ ProjectionUncertainty projectionUncertainty(
   ProjectionUncertainty out;
   const std::vector<int> free = freeParameters(fitted);
   const int p = static_cast<int>(free.size());
-  if (!supported(in) || p == 0 || cols <= 0 || rows <= 0 || object_points.empty() ||
+  if (p == 0 || cols <= 0 || rows <= 0 || object_points.empty() ||
       object_points.size() != image_points.size() || rvecs.size() != object_points.size() ||
       tvecs.size() != object_points.size())
     return out;
-  const cv::Mat k(in.cameraMatrix()), d(in.distortion_coefficients);
   // J^T J over the intrinsics and each view's pose, with the poses eliminated as they are found
   // (a Schur complement): U - sum_v W_v V_v^-1 W_v^T is the intrinsics' information.
   cv::Mat information = cv::Mat::zeros(p, p, CV_64F);
   double squared = 0;
   int residuals = 0;
   for (size_t v = 0; v < object_points.size(); ++v) {
-    std::vector<cv::Point2d> projected;
-    cv::Mat jacobian;
-    std::vector<cv::Point3d> obj(object_points[v].begin(), object_points[v].end());
-    cv::projectPoints(obj, rvecs[v], tvecs[v], k, d, projected, jacobian);
-    for (size_t i = 0; i < projected.size(); ++i) {
-      const double dx = projected[i].x - image_points[v][i].x;
-      const double dy = projected[i].y - image_points[v][i].y;
+    const std::vector<cv::Point3d> obj(object_points[v].begin(), object_points[v].end());
+    const Projection proj = projectWithJacobians(obj, rvecs[v], tvecs[v], in);
+    for (size_t i = 0; i < proj.points.size(); ++i) {
+      const double dx = proj.points[i].x - image_points[v][i].x;
+      const double dy = proj.points[i].y - image_points[v][i].y;
       squared += dx * dx + dy * dy;
     }
-    residuals += 2 * static_cast<int>(projected.size());
-    const cv::Mat a = intrinsicColumns(jacobian, free);
-    const cv::Mat b = jacobian.colRange(0, 6);
+    residuals += 2 * static_cast<int>(proj.points.size());
+    const cv::Mat a = intrinsicColumns(proj.intrinsics, free);
+    const cv::Mat& b = proj.pose;
     const cv::Mat w = a.t() * b;
     const cv::Mat pose = b.t() * b;
     information += a.t() * a - w * pose.inv(cv::DECOMP_SVD) * w.t();

@@ -548,9 +548,10 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
         rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
   }
   // The free parameters: those with a standard deviation (OpenCV gives a fixed one 0). The
-  // fisheye fit reports none and gets none: OpenCV's fisheye calibration is not the least-squares
-  // optimum the propagation assumes (over repeated synthetic fits its true errors were 30 times
-  // the uncertainty propagated at its result).
+  // fisheye fit reports none and gets none: over repeated synthetic fits its true errors were 30
+  // times the uncertainty propagated at its result (OpenCV's fisheye optimiser, which alternates
+  // intrinsics and poses, may stop short of the least-squares optimum the propagation assumes;
+  // not yet established).
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
   result.uncertainty = projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted);

@@ -86,11 +86,8 @@ class RunReplay {
   void abort(const std::string& why) { recorder_.markInterrupted(why); }
   /// The stage being replayed and what it has (e.g. "wheels: 8 drives, 17 stills").
   std::string describe() const;
-  /// The recorded progress of the stage being replayed (0-1, the largest its statuses gave).
-  double recordedProgress() const { return recorded_progress_; }
   /// The replay's own statuses, for the report.
   const report::RunRecord& record() const { return recorder_.record(); }
-  int framesDropped() const { return frames_dropped_; }
 
  private:
   const std::string& current() const;
@@ -110,7 +107,6 @@ class RunReplay {
   report::RunRecorder recorder_;
   std::size_t current_ = 0;  ///< index into options_.stages
   std::unique_ptr<Stage> stage_;
-  camera::SweepReplay* sweep_ = nullptr;
   wheels::WheelReplay* wheel_ = nullptr;
   bool have_nominal_ = false;
   CameraIntrinsics nominal_;
@@ -122,7 +118,6 @@ class RunReplay {
   bool have_ticks_[2] = {false, false};
   EncoderPairer pairer_;
   double last_stamp_s_ = 0;
-  double recorded_progress_ = 0;
   bool odometry_started_ = false;
   std::map<std::string, std::set<double>> frames_used_;
 };

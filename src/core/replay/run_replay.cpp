@@ -116,8 +116,6 @@ void RunReplay::addRecordedStatus(const report::StatusUpdate& recorded) {
     return;
   }
   if (!stage_ && recorded.phase != stage + "/wait") build(recorded.stamp_s);
-  if (recorded.progress >= 0 && recorded.progress <= 1)
-    recorded_progress_ = std::max(recorded_progress_, recorded.progress);
   if (stage_) {
     stage_->addRecordedPhase(recorded.stamp_s, recorded.phase);
     const StageStatus s = stage_->status();
@@ -151,7 +149,6 @@ void RunReplay::build(double stamp_s) {
     auto sweep = std::make_unique<camera::SweepReplay>(run, camera);
     sweep->setCameraInfoFormat(options_.camera_info_format);
     if (frames_used_.count(stage)) sweep->setFramesUsed(frames_used_.at(stage));
-    sweep_ = sweep.get();
     stage_ = std::move(sweep);
   } else {
     wheels::WheelRunOptions run = options_.wheel_run;
@@ -166,7 +163,6 @@ void RunReplay::build(double stamp_s) {
     wheel_ = wheel.get();
     stage_ = std::move(wheel);
   }
-  recorded_progress_ = 0;
   log(stage + ": the recorded stage began: replaying it" +
       (frames_used_.count(stage)
            ? " on the " + std::to_string(frames_used_.at(stage).size()) + " frames it took"
@@ -223,7 +219,6 @@ void RunReplay::done(double stamp_s, StageResult result) {
   log(stage + ": DONE: " + text + (result.log.empty() ? "" : " (" + result.log + ")"));
   if (stage == "camera" && options_.intrinsics_file.empty()) options_.intrinsics_file = result.file;
   stage_.reset();
-  sweep_ = nullptr;
   wheel_ = nullptr;
   frames_dropped_ = 0;
   ++current_;

@@ -94,6 +94,7 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 add_executable(lane_refinement_node
   src/nodes/lane_refinement/lane_refinement_node.cpp
+  src/nodes/lane_refinement/lane_refinement_options.cpp
   src/nodes/lane_refinement/lane_refinement_node_main.cpp)
 target_link_libraries(lane_refinement_node autocal_ros)
 autocal_ros_target(lane_refinement_node)

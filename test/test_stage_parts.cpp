@@ -1,5 +1,5 @@
 // The parts the driving stages share: EncoderTracker (sensors.h), SettleRule, MotionClock,
-// RunWatch, followRate, stallOf (motion.h) and StatusThrottle.
+// RunWatch, followRate, stallOf, EncoderDrive (motion.h) and StatusThrottle.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -120,6 +120,52 @@ TEST(RunWatch, ClampsTheStepAndFailsOnTimeThenOnMissingThenOnSilentEncoders) {
             "the encoders went silent for 3.5 s");
   EXPECT_EQ(w.failure(14.5, e, true, 4.0, 3.0, "UAH run", "spin"),
             "the UAH run took longer than max_duration_s (4 s) in spin");
+}
+
+TEST(EncoderDrive, OneSamplePerStampRatesOverTheWindowAndAJumpRefused) {
+  EncoderDriveOptions o;
+  o.max_encoder_rate_pulses_per_s = 1000;
+  EncoderDrive d(o, 2.0);
+  EncoderTracker::Step step;
+  EXPECT_EQ(d.add(0.0, 0, 0, &step), "");
+  EXPECT_TRUE(step.first);
+  d.restartSamples();
+  for (int k = 1; k <= 20; ++k) {
+    // Each wheel's message on its own, with one stamp: the second completes the first's sample.
+    EXPECT_EQ(d.add(0.05 * k, 5 * k, 10 * (k - 1), &step), "");
+    d.keepSample();
+    EXPECT_EQ(d.add(0.05 * k, 5 * k, 10 * k, &step), "");
+    d.keepSample();
+  }
+  ASSERT_EQ(d.samples().size(), 21u);
+  EXPECT_DOUBLE_EQ(d.samples().back().right, 200);
+  EXPECT_NEAR(d.rate(0, 0.5), 100, 1e-9);
+  EXPECT_NEAR(d.rate(1, 0.5), 200, 1e-9);
+  d.forgetOlderThan(0.3);
+  EXPECT_NEAR(d.samples().front().stamp_s, 0.7, 1e-9);
+  EXPECT_NE(d.add(1.1, 5 * 20 + 200, 200, &step).find("encoder jump"), std::string::npos);
+}
+
+TEST(EncoderDrive, FollowsARateStallsAndSettles) {
+  EncoderDriveOptions o;
+  o.stall_s = 1.0;
+  o.still_s = 0.2;
+  o.settle_s = 0.3;
+  EncoderDrive d(o, 2.0);
+  EncoderTracker::Step step;
+  d.add(0.0, 0, 0, &step);
+  d.startMotion(0.0, 0.2);
+  d.clock().start(0.0);
+  d.follow(1, 50, 100, 0.5);  // half the rate: the duty rises by gain·dt·0.5
+  EXPECT_DOUBLE_EQ(d.duty(1), 0.2 + 0.3 * 0.5 * 0.5);
+  EXPECT_DOUBLE_EQ(d.duty(0), 0.2);
+  EXPECT_EQ(d.stall(0, 0.9), "");
+  EXPECT_NE(d.stall(0, 1.1).find("the left wheel has not moved"), std::string::npos);
+  d.stop(1.0);
+  d.add(1.25, 0, 0, &step);
+  EXPECT_FALSE(d.settled(1.25));  // before settle_s
+  d.add(1.35, 0, 0, &step);
+  EXPECT_TRUE(d.settled(1.35));  // still since 0.0, settle_s passed
 }
 
 TEST(StatusThrottle, PublishesAKeyChangeAtOnceAndTheRestAtTheRate) {

@@ -46,6 +46,7 @@ NODES = {
                                   "src/ros/autocal_ros/stage_node.cpp"],
     "kinematics_node": ["src/nodes/kinematics/kinematics_node.cpp"],
     "lane_refinement_node": ["src/nodes/lane_refinement/lane_refinement_node.cpp",
+                             "src/nodes/lane_refinement/lane_refinement_options.cpp",
                              "src/ros/autocal_ros/tag_params.cpp"],
     "run_report_node": ["src/nodes/run_report/run_report_node.cpp"],
     "camera_view_node": ["src/nodes/run_report/camera_view_node.cpp"],

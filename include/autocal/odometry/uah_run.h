@@ -31,7 +31,8 @@
 namespace autocal {
 namespace odometry {
 
-struct UahRunOptions {
+/// The drive's options (EncoderDriveOptions) and the experiments'.
+struct UahRunOptions : EncoderDriveOptions {
   /// The robot's parameters before the calibration: the expected pulses per round (§2.1's N_t)
   /// and the straight run's pulse target come from them.
   DiffDriveParams nominal;
@@ -48,11 +49,6 @@ struct UahRunOptions {
   double straight_rate_pulses_per_s = 90.0;
   /// The straight run's rate rises from the spin's to its own over this time [s].
   double straight_ramp_s = 1.5;
-  /// Duty a rate-controlled wheel starts at, and the largest it may reach [1].
-  double start_duty = 0.15;
-  double max_duty = 0.7;
-  /// How fast a wheel's duty follows its pulse-rate error [duty/s at 100 % rate error].
-  double rate_gain_per_s = 0.3;
   /// Straight runs: the distance to drive, by the nominal right wheel [m] (the free line needed);
   /// accepted runs wanted; extra runs allowed for rejected ones.
   double straight_length_m = 3.0;
@@ -80,24 +76,15 @@ struct UahRunOptions {
   double max_decorrelation_fraction = 0.15;
   /// Share of a turning experiment's range readings that may be dropouts or out of range.
   double max_invalid_range_fraction = 0.4;
-  /// Encoder sanity: a wheel that moved faster than this between two readings (over at least
-  /// encoder_jump_window_s, since the two wheels' messages arrive apart) was reset or jumped
-  /// [pulses/s] (plus a few pulses of slack). A Duckiebot's wheel at full duty: ~600 pulses/s.
-  double max_encoder_rate_pulses_per_s = 1500.0;
-  double encoder_jump_window_s = 0.1;
-  /// A driven wheel whose encoder has not moved for this long has stalled [s].
-  double stall_s = 3.0;
-  /// After a stop: wait until the encoders have been still this long, and at least settle_s [s].
-  double still_s = 0.2;
-  double settle_s = 0.4;
-  /// Silence of a sensor (while needed) that fails the run [s].
-  double encoder_timeout_s = 2.0;
+  /// Silence of the range sensor (while turning) that fails the run [s].
   double range_timeout_s = 2.0;
   /// Bound of the whole run [s] (0: none) and of waiting for a straight run's length (0: none).
   double max_duration_s = 1200.0;
   double length_timeout_s = 0.0;
   /// Throws ConfigError naming the first bad key.
   void validate() const;
+  /// One line for a log: the experiments the run will drive.
+  std::string summary() const;
 };
 
 enum class UahExperiment {
@@ -159,14 +146,14 @@ class UahRun : public Stage {
   /// The straight run under way or waiting for its length: 1-based, and the time its duties first
   /// went out [s] (the robot stood still until then: a ground-truth helper measures from there).
   int straightRun() const { return attempts_ + 1; }
-  double straightRunStartS() const { return motion_clock_.startS(); }
+  double straightRunStartS() const { return drive_.clock().startS(); }
   /// The round the current turn is in (1-based; 0 before a round is detected), the latest pulses
   /// per round of the current turn (0 until detected).
   int round() const;
   double pulsesPerRound() const { return online_ppr_; }
   /// 0..1, a rough share of the run done.
   double progress() const;
-  double elapsedS() const { return watch_.elapsedS(); }
+  double elapsedS() const { return drive_.elapsedS(); }
   /// One line: experiment, counts, last figures.
   std::string describe() const;
   /// Step: the experiment; key: round, straight run and the wait for its length.
@@ -176,10 +163,6 @@ class UahRun : public Stage {
 
  private:
   enum class Motion { kNone, kTurn, kDrive, kSettle };
-  struct Sample {
-    double stamp_s;
-    double left, right;  // unwrapped ticks
-  };
 
   [[noreturn]] void fail(const std::string& why);
   void startTurn(UahExperiment experiment, double now_s);
@@ -191,16 +174,14 @@ class UahRun : public Stage {
   /// A driven wheel's duty towards a pulse rate; FAILED when the wheel stalls.
   void follow(int side, double target_pulses_per_s, double dt_s);
   void checkStall(int side, double now_s);
-  bool settled(double now_s) const;
   void onSettled(double now_s);
   void finishTurn();
   void finishStraight(double length_m);
   void nextAfterTurns(double now_s);
   void finish();
-  double turnPulses(const Sample& s) const;
+  double turnPulses(const EncoderDrive::Sample& s) const;
   std::vector<RangeSample> turnRangeSamples() const;
   RoundDetectionOptions detectionFor(UahExperiment experiment) const;
-  double wheelRate(int side, double window_s) const;
   /// Standard deviation of the current turn's valid range readings [m].
   double rangeSpreadM() const;
   /// The current turn's decorrelation_fraction (see UahTurn).
@@ -215,16 +196,13 @@ class UahRun : public Stage {
   std::string failure_;
   UahResult result_;
 
-  RunWatch watch_;  ///< the run's clock and its time and encoder checks
-  EncoderTracker encoders_;
-  double last_encoder_arrival_s_ = 0, last_range_arrival_s_ = 0;
-  std::vector<Sample> history_;  // the current motion's encoder samples
+  /// The run's clock, the encoders, the current motion's samples and clock, the wheels' duties.
+  EncoderDrive drive_;
+  const EncoderTracker& encoders() const { return drive_.encoders(); }
+  double last_range_arrival_s_ = 0;
 
   // motion
   WheelDuties duties_;
-  MotionClock motion_clock_;
-  double stop_s_ = -1e9;
-  double duty_mag_[2] = {0, 0};
   double start_left_ = 0, start_right_ = 0;
 
   // turning

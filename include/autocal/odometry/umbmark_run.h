@@ -25,7 +25,8 @@
 namespace autocal {
 namespace odometry {
 
-struct UmbmarkRunOptions {
+/// The drive's options (EncoderDriveOptions) and the squares'.
+struct UmbmarkRunOptions : EncoderDriveOptions {
   /// The odometry the squares are driven on (nominal, or an earlier calibration's).
   DiffDriveParams nominal;
   /// The side L of the square [m] (1 m suits a Duckiebot; Borenstein used 4 m).
@@ -38,11 +39,6 @@ struct UmbmarkRunOptions {
   double turn_rate_pulses_per_s = 40.0;
   /// A leg's rate rises from the turn rate to the drive rate over this time [s].
   double ramp_s = 1.0;
-  /// Duty a rate-controlled wheel starts at, and the largest it may reach [1].
-  double start_duty = 0.15;
-  double max_duty = 0.7;
-  /// How fast a wheel's duty follows its pulse-rate error [duty/s at 100 % rate error].
-  double rate_gain_per_s = 0.3;
   /// Heading hold on the legs, on the heading error expressed in wheel pulses (e·b/c̄): the
   /// right duty gets +gain·e (+ integral), the left −: [duty/pulse], [duty/(pulse·s)].
   double heading_gain_duty_per_pulse = 0.01;
@@ -56,17 +52,6 @@ struct UmbmarkRunOptions {
   /// metres, a wrong measurement). An uncalibrated Duckiebot whose wheelbase is 9 % off its
   /// nominal one comes back about one side away from where it started.
   double max_return_error_fraction = 2.0;
-  /// Encoder sanity as UahRunOptions: a wheel faster than this between two readings (over at
-  /// least encoder_jump_window_s) was reset or jumped [pulses/s] (plus a few pulses of slack).
-  double max_encoder_rate_pulses_per_s = 1500.0;
-  double encoder_jump_window_s = 0.1;
-  /// A driven wheel whose encoder has not moved for this long has stalled [s].
-  double stall_s = 3.0;
-  /// After a stop: wait until the encoders have been still this long, and at least settle_s [s].
-  double still_s = 0.2;
-  double settle_s = 0.4;
-  /// Silence of the encoders while moving that fails the run [s].
-  double encoder_timeout_s = 2.0;
   /// Bound of the whole run [s] (0: none) and of waiting for a return error [s] (0: none).
   double max_duration_s = 1800.0;
   double error_timeout_s = 0.0;
@@ -84,6 +69,8 @@ struct UmbmarkRunOptions {
   std::string errors_source = "~return_error";
   /// Throws ConfigError naming the first bad key.
   void validate() const;
+  /// One line for a log: the squares the run will drive and where their errors come from.
+  std::string summary() const;
   /// The options computeUmbmark gets (side, nominal wheelbase, expressions).
   UmbmarkOptions umbmark() const;
 };
@@ -136,7 +123,7 @@ class UmbmarkRun : public Stage {
   const Pose2D& computedPose() const { return odometry_.pose(); }
   /// 0..1, the share of the runs done.
   double progress() const;
-  double elapsedS() const { return watch_.elapsedS(); }
+  double elapsedS() const { return drive_.elapsedS(); }
   /// One line: direction, run, leg, last figures.
   std::string describe() const;
   /// Step: the direction; key: the square, its leg and the waits for return errors.
@@ -154,7 +141,6 @@ class UmbmarkRun : public Stage {
   void startLeg(double now_s);
   void startTurn(double now_s);
   void stop(double now_s);
-  bool settled(double now_s) const;
   void onSettled(double now_s);
   void finish();
   /// Refuses an error that is not finite or larger than the limit.
@@ -170,12 +156,9 @@ class UmbmarkRun : public Stage {
   UmbmarkResult result_;
   std::vector<ReturnError> cw_, ccw_;
 
-  RunWatch watch_;  ///< the run's clock and its time and encoder checks
-  EncoderTracker encoders_;
-  struct Sample {
-    double stamp_s, left, right;
-  };
-  std::vector<Sample> recent_;  // the last second of encoder samples (wheel rates)
+  /// The run's clock, the encoders, the last second's samples (wheel rates), the current
+  /// motion's clock, the wheels' duties.
+  EncoderDrive drive_;
 
   DeadReckoning odometry_;
   int runs_done_ = 0;         // runs whose error was given
@@ -189,10 +172,8 @@ class UmbmarkRun : public Stage {
   double errors_file_read_s_ = -1e9;
   std::string errors_file_wait_;
   double run_start_s_ = 0;
-  MotionClock motion_clock_;
-  double stop_s_ = -1e9;
   WheelDuties duties_;
-  double drive_duty_ = 0, turn_duty_[2] = {0, 0}, duty_mag_[2] = {0, 0};
+  double drive_duty_ = 0, turn_duty_[2] = {0, 0};
   double heading_integral_ = 0;
 };
 

@@ -44,6 +44,7 @@ const char* name(UahExperiment experiment) {
 void UahRunOptions::validate() const {
   nominal.validate();
   straight.validate();
+  EncoderDriveOptions::validate();
   checkConfig(rounds >= 1 && rounds <= 20, "rounds", "must be within [1, 20]");
   checkConfig(pivot_experiments >= 1 && pivot_experiments <= 10, "pivot_experiments",
               "must be within [1, 10]");
@@ -51,10 +52,6 @@ void UahRunOptions::validate() const {
   checkConfig(spin_rate_pulses_per_s > 0, "spin_rate_pulses_per_s", "must be > 0 [pulses/s]");
   checkConfig(straight_rate_pulses_per_s > 0, "straight_rate_pulses_per_s",
               "must be > 0 [pulses/s]");
-  checkConfig(start_duty >= 0 && start_duty < 1, "start_duty", "must be within [0, 1)");
-  checkConfig(max_duty > start_duty && max_duty <= 1, "max_duty", "must be within (start_duty, 1]");
-  checkConfig(rate_gain_per_s > 0 && rate_gain_per_s < 5, "rate_gain_per_s",
-              "must be within (0, 5) [1/s]");
   checkConfig(straight_length_m > 0.2 && straight_length_m < 50, "straight_length_m",
               "must be within (0.2, 50) [m]");
   checkConfig(straight_runs >= 1, "straight_runs", "must be >= 1");
@@ -71,11 +68,6 @@ void UahRunOptions::validate() const {
   checkConfig(min_range_spread_m >= 0, "min_range_spread_m", "must be >= 0 [m]");
   checkConfig(max_invalid_range_fraction >= 0 && max_invalid_range_fraction < 1,
               "max_invalid_range_fraction", "must be within [0, 1)");
-  checkConfig(max_encoder_rate_pulses_per_s > 0, "max_encoder_rate_pulses_per_s", "must be > 0");
-  checkConfig(encoder_jump_window_s > 0, "encoder_jump_window_s", "must be > 0 [s]");
-  checkConfig(stall_s > 0, "stall_s", "must be > 0 [s]");
-  checkConfig(still_s > 0 && settle_s >= 0, "still_s", "still_s must be > 0, settle_s >= 0 [s]");
-  checkConfig(encoder_timeout_s > 0, "encoder_timeout_s", "must be > 0 [s]");
   checkConfig(range_timeout_s > 0, "range_timeout_s", "must be > 0 [s]");
   checkConfig(max_duration_s >= 0, "max_duration_s", "must be >= 0 [s] (0: no limit)");
   checkConfig(length_timeout_s >= 0, "length_timeout_s", "must be >= 0 [s] (0: no limit)");
@@ -84,7 +76,17 @@ void UahRunOptions::validate() const {
   d.validate();
 }
 
-UahRun::UahRun(const UahRunOptions& options) : options_(options) { options_.validate(); }
+std::string UahRunOptions::summary() const {
+  return std::to_string(rounds) + " rounds x " + std::to_string(pivot_experiments) +
+         " pivot experiments per wheel, spin, " + std::to_string(straight_runs) +
+         " straight runs of " + formatNumber(straight_length_m, 3) + " m (heading within " +
+         deg(straight.max_heading_deviation_rad) + ", up to " +
+         std::to_string(max_straight_retries) + " retries)";
+}
+
+UahRun::UahRun(const UahRunOptions& options) : options_(options), drive_(options, kMaxSettleS) {
+  options_.validate();
+}
 
 void UahRun::fail(const std::string& why) {
   experiment_ = UahExperiment::kFailed;
@@ -98,20 +100,11 @@ void UahRun::fail(const std::string& why) {
 void UahRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
                          int /*ticks_per_revolution*/, double /*now_s*/) {
   if (failed() || done()) return;
-  const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
-  if (!step.accepted || step.first) return;
-  const std::string jump = EncoderTracker::jump(step, options_.max_encoder_rate_pulses_per_s,
-                                                options_.encoder_jump_window_s);
+  EncoderTracker::Step step;
+  const std::string jump = drive_.add(stamp_s, left_ticks, right_ticks, &step);
   if (!jump.empty()) fail(jump + "; the pulse counts cannot be trusted");
-  if (motion_ == Motion::kNone) return;
-  // The two wheels' messages arrive one after the other with the same stamp (the driver reads
-  // both at once): the second completes the first's reading instead of adding a half-updated one
-  // (a pulse rate's worth of false heading).
-  if (!history_.empty() && history_.back().stamp_s == stamp_s) {
-    history_.back() = {stamp_s, encoders_.left(), encoders_.right()};
-  } else {
-    history_.push_back({stamp_s, encoders_.left(), encoders_.right()});
-  }
+  if (!step.accepted || step.first || motion_ == Motion::kNone) return;
+  drive_.keepSample();
 }
 
 void UahRun::addRange(double stamp_s, double range_m) {
@@ -124,11 +117,11 @@ void UahRun::addRange(double stamp_s, double range_m) {
     if (!valid) ++invalid_ranges_;
   }
   if (experiment_ == UahExperiment::kStraight && motion_ == Motion::kDrive && straight_dir_ > 0 &&
-      motion_clock_.started() && stamp_s >= motion_clock_.startS() && valid &&
+      drive_.clock().started() && stamp_s >= drive_.clock().startS() && valid &&
       range_m < options_.min_clearance_m) {
     fail("straight run cut short: an obstacle " + formatNumber(range_m, 3) + " m ahead after " +
          formatNumber(
-             std::abs(encoders_.right() - start_right_) * options_.nominal.right_m_per_pulse, 3) +
+             std::abs(encoders().right() - start_right_) * options_.nominal.right_m_per_pulse, 3) +
          " m (needs " + formatNumber(options_.straight_length_m, 3) + " m of free straight line)");
   }
 }
@@ -161,7 +154,7 @@ RoundDetectionOptions UahRun::detectionFor(UahExperiment experiment) const {
   return d;
 }
 
-double UahRun::turnPulses(const Sample& s) const {
+double UahRun::turnPulses(const EncoderDrive::Sample& s) const {
   const double dl = s.left - start_left_, dr = s.right - start_right_;
   switch (experiment_) {
     case UahExperiment::kPivotLeftStopped:
@@ -180,33 +173,21 @@ std::vector<RangeSample> UahRun::turnRangeSamples() const {
   // Each reading gets the pulses interpolated at its stamp between the encoder readings around it
   // (§2.1: the range as a function of the moving wheel's pulses).
   std::vector<RangeSample> out;
-  if (history_.size() < 2) return out;
+  if (drive_.samples().size() < 2) return out;
   size_t j = 0;
   for (const auto& r : ranges_) {
     const double t = r[0];
-    if (t < history_.front().stamp_s || t > history_.back().stamp_s) continue;
-    while (j + 1 < history_.size() && history_[j + 1].stamp_s < t) ++j;
-    if (j + 1 >= history_.size()) break;
-    const Sample& a = history_[j];
-    const Sample& b = history_[j + 1];
+    if (t < drive_.samples().front().stamp_s || t > drive_.samples().back().stamp_s) continue;
+    while (j + 1 < drive_.samples().size() && drive_.samples()[j + 1].stamp_s < t) ++j;
+    if (j + 1 >= drive_.samples().size()) break;
+    const EncoderDrive::Sample& a = drive_.samples()[j];
+    const EncoderDrive::Sample& b = drive_.samples()[j + 1];
     const double span = b.stamp_s - a.stamp_s;
     const double f = span > 0 ? (t - a.stamp_s) / span : 0.0;
     const double pa = turnPulses(a), pb = turnPulses(b);
     out.push_back({pa + f * (pb - pa), r[1]});
   }
   return out;
-}
-
-double UahRun::wheelRate(int side, double window_s) const {
-  if (history_.size() < 2) return 0.0;
-  const Sample& last = history_.back();
-  size_t i = history_.size() - 1;
-  while (i > 0 && history_[i - 1].stamp_s >= last.stamp_s - window_s) --i;
-  const Sample& first = history_[i];
-  const double dt = last.stamp_s - first.stamp_s;
-  if (dt < 0.1) return 0.0;
-  const double d = side == 0 ? last.left - first.left : last.right - first.right;
-  return std::abs(d) / dt;
 }
 
 double UahRun::rangeSpreadM() const {
@@ -247,55 +228,45 @@ void UahRun::refuseFlatScene() {
 void UahRun::startTurn(UahExperiment experiment, double now_s) {
   experiment_ = experiment;
   motion_ = Motion::kTurn;
-  motion_clock_.reset(now_s);
-  history_.clear();
-  history_.push_back({encoders_.stampS(), encoders_.left(), encoders_.right()});
-  start_left_ = encoders_.left(), start_right_ = encoders_.right();
+  drive_.startMotion(now_s, options_.start_duty);
+  drive_.restartSamples();
+  start_left_ = encoders().left(), start_right_ = encoders().right();
   ranges_.clear();
   invalid_ranges_ = 0;
   online_ppr_ = 0;
   turn_target_pulses_ = 0;
   last_detection_error_.clear();
   next_check_pulses_ = 1.5 * detectionFor(experiment).expected_pulses_per_round;
-  duty_mag_[0] = duty_mag_[1] = options_.start_duty;
 }
 
 void UahRun::startStraight(double now_s) {
   experiment_ = UahExperiment::kStraight;
   motion_ = Motion::kDrive;
-  motion_clock_.reset(now_s);
-  history_.clear();
-  history_.push_back({encoders_.stampS(), encoders_.left(), encoders_.right()});
-  start_left_ = encoders_.left(), start_right_ = encoders_.right();
+  drive_.restartSamples();
+  start_left_ = encoders().left(), start_right_ = encoders().right();
   heading_integral_ = 0;
   // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
   // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
   // the heading transient small).
-  const double start =
-      spin_duty_[0] > 0 ? 0.5 * (spin_duty_[0] + spin_duty_[1]) : options_.start_duty;
-  duty_mag_[0] = duty_mag_[1] = start;
+  drive_.startMotion(
+      now_s, spin_duty_[0] > 0 ? 0.5 * (spin_duty_[0] + spin_duty_[1]) : options_.start_duty);
 }
 
 void UahRun::stop(double now_s) {
   duties_ = {};
   motion_ = Motion::kSettle;
-  stop_s_ = now_s;
-}
-
-bool UahRun::settled(double now_s) const {
-  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
-                                                                              encoders_);
+  drive_.stop(now_s);
 }
 
 int UahRun::round() const {
-  if (!isTurn(experiment_) || online_ppr_ <= 0 || history_.empty()) return 0;
-  return static_cast<int>(std::floor(turnPulses(history_.back()) / online_ppr_)) + 1;
+  if (!isTurn(experiment_) || online_ppr_ <= 0 || drive_.samples().empty()) return 0;
+  return static_cast<int>(std::floor(turnPulses(drive_.samples().back()) / online_ppr_)) + 1;
 }
 
 void UahRun::finishTurn() {
   UahTurn turn;
   turn.experiment = experiment_;
-  turn.pulses_turned = turnPulses(history_.back());
+  turn.pulses_turned = turnPulses(drive_.samples().back());
   turn.range_readings = static_cast<int>(ranges_.size());
   turn.invalid_readings = invalid_ranges_;
   const std::string what = std::string(name(experiment_)) + ": ";
@@ -344,7 +315,7 @@ void UahRun::finishTurn() {
       break;
     default:
       spin_ppr_ = ppr;
-      spin_duty_[0] = duty_mag_[0], spin_duty_[1] = duty_mag_[1];
+      spin_duty_[0] = drive_.duty(0), spin_duty_[1] = drive_.duty(1);
   }
 }
 
@@ -381,14 +352,14 @@ void UahRun::onSettled(double now_s) {
   // encoder steps: a centred mean over 5 readings (~0.17 s at 30 Hz) keeps the heading and
   // removes most of that quantisation before §2.3's threshold is applied.
   std::vector<std::pair<double, double>> cumulative;
-  const int n = static_cast<int>(history_.size()), half = 2;
+  const int n = static_cast<int>(drive_.samples().size()), half = 2;
   for (int i = 0; i < n; ++i) {
     const int lo = std::max(0, i - half), hi = std::min(n - 1, i + half);
     double l = 0, r = 0;
-    for (int j = lo; j <= hi; ++j) l += history_[j].left, r += history_[j].right;
+    for (int j = lo; j <= hi; ++j) l += drive_.samples()[j].left, r += drive_.samples()[j].right;
     cumulative.push_back({l / (hi - lo + 1) - start_left_, r / (hi - lo + 1) - start_right_});
   }
-  run_right_pulses_ = std::abs(history_.back().right - start_right_);
+  run_right_pulses_ = std::abs(drive_.samples().back().right - start_right_);
   run_max_dev_rad_ = maxHeadingDeviationRad(cumulative, headingParams());
   motion_ = Motion::kNone;
   awaiting_length_ = true;
@@ -425,7 +396,7 @@ void UahRun::setStraightLength(double length_m) {
   }
   // The next run goes back along the same line (a rejected one is repeated that way too).
   straight_dir_ = -straight_dir_;
-  startStraight(watch_.lastS());
+  startStraight(drive_.lastS());
 }
 
 void UahRun::finish() {
@@ -443,12 +414,11 @@ void UahRun::finish() {
 
 WheelDuties UahRun::update(double now_s) {
   if (done() || failed()) return {};
-  const double dt = watch_.tick(now_s);
-  const std::string late =
-      watch_.failure(now_s, encoders_, motion_ != Motion::kNone, options_.max_duration_s,
-                     options_.encoder_timeout_s, "UAH run", name(experiment_));
+  double dt = 0;
+  const std::string late = drive_.tick(now_s, motion_ != Motion::kNone, options_.max_duration_s,
+                                       "UAH run", name(experiment_), &dt);
   if (!late.empty()) fail(late);
-  if (!encoders_.valid()) return {};
+  if (!encoders().valid()) return {};
   if (experiment_ == UahExperiment::kWait) startTurn(UahExperiment::kPivotLeftStopped, now_s);
   if (awaiting_length_) {
     if (options_.length_timeout_s > 0 && now_s - awaiting_since_s_ > options_.length_timeout_s) {
@@ -458,36 +428,32 @@ WheelDuties UahRun::update(double now_s) {
     return {};
   }
   if (motion_ == Motion::kSettle) {
-    if (settled(now_s)) onSettled(now_s);
+    if (drive_.settled(now_s)) onSettled(now_s);
     if (motion_ == Motion::kSettle || motion_ == Motion::kNone) return duties_ = {};
   }
   if (motion_ == Motion::kNone) return {};
-  motion_clock_.start(now_s);
+  drive_.clock().start(now_s);
   return motion_ == Motion::kTurn ? updateTurn(now_s, dt) : updateStraight(now_s, dt);
 }
 
 void UahRun::follow(int side, double target_pulses_per_s, double dt_s) {
-  // Integral control on the wheel's pulse rate: the robot's deadbands and motor gains are unknown
-  // here.
-  duty_mag_[side] = followRate(duty_mag_[side], wheelRate(side, kRateWindowS), target_pulses_per_s,
-                               options_.rate_gain_per_s, dt_s, options_.max_duty);
+  drive_.follow(side, drive_.rate(side, kRateWindowS), target_pulses_per_s, dt_s);
 }
 
 void UahRun::checkStall(int side, double now_s) {
-  const std::string stall =
-      stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
+  const std::string stall = drive_.stall(side, now_s);
   if (!stall.empty()) fail(std::string(name(experiment_)) + ": " + stall);
 }
 
 WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
-  const double moving_s = motion_clock_.elapsedS(now_s);
+  const double moving_s = drive_.clock().elapsedS(now_s);
   if (moving_s > options_.range_timeout_s &&
-      now_s - std::max(last_range_arrival_s_, motion_clock_.startS()) > options_.range_timeout_s) {
+      now_s - std::max(last_range_arrival_s_, drive_.clock().startS()) > options_.range_timeout_s) {
     fail(std::string(name(experiment_)) + ": the range sensor went silent");
   }
   const RoundDetectionOptions det = detectionFor(experiment_);
   const double nt = det.expected_pulses_per_round;
-  const double p = turnPulses(history_.back());
+  const double p = turnPulses(drive_.samples().back());
   // §2.1: whole rounds come from the autocorrelation of what has been turned so far, checked
   // every tenth of a round; the turn ends after rounds + 1 detected rounds.
   if (p >= next_check_pulses_) {
@@ -519,19 +485,19 @@ WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
     case UahExperiment::kPivotLeftStopped:
       follow(1, rate, dt_s);
       checkStall(1, now_s);
-      duties_ = {0.0, duty_mag_[1]};
+      duties_ = {0.0, drive_.duty(1)};
       break;
     case UahExperiment::kPivotRightStopped:
       follow(0, rate, dt_s);
       checkStall(0, now_s);
-      duties_ = {duty_mag_[0], 0.0};
+      duties_ = {drive_.duty(0), 0.0};
       break;
     default:  // spin counter-clockwise
       follow(0, rate, dt_s);
       follow(1, rate, dt_s);
       checkStall(0, now_s);
       checkStall(1, now_s);
-      duties_ = {-duty_mag_[0], duty_mag_[1]};
+      duties_ = {-drive_.duty(0), drive_.duty(1)};
   }
   return duties_;
 }
@@ -539,15 +505,15 @@ WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
 WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   // A straight run (§2.3): the right wheel at its rate; the left wheel at the rate that keeps
   // N_L·c_L = N_R·c_R (N_L = Ed·N_R), and a PI on the heading error N_R − N_L/Ed [pulses].
-  const double dl = straight_dir_ * (encoders_.left() - start_left_);
-  const double dr = straight_dir_ * (encoders_.right() - start_right_);
+  const double dl = straight_dir_ * (encoders().left() - start_left_);
+  const double dr = straight_dir_ * (encoders().right() - start_right_);
   const double target_pulses = options_.straight_length_m / options_.nominal.right_m_per_pulse;
   if (dr >= target_pulses) {
     stop(now_s);
     return duties_;
   }
   const double ramp =
-      std::clamp(motion_clock_.elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
+      std::clamp(drive_.clock().elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
   follow(1,
          options_.spin_rate_pulses_per_s +
              ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s),
@@ -558,10 +524,10 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   // the wheels' differences (deadbands, motor gains, Ed).
   const double error = dr - dl / Ed_;
   heading_integral_ += error * dt_s;
-  const double left = std::clamp(duty_mag_[1] + options_.heading_gain_duty_per_pulse * error +
+  const double left = std::clamp(drive_.duty(1) + options_.heading_gain_duty_per_pulse * error +
                                      options_.heading_integral_duty_per_pulse_s * heading_integral_,
                                  0.0, options_.max_duty);
-  duties_ = {straight_dir_ * left, straight_dir_ * duty_mag_[1]};
+  duties_ = {straight_dir_ * left, straight_dir_ * drive_.duty(1)};
   return duties_;
 }
 
@@ -570,8 +536,8 @@ double UahRun::progress() const {
   const double straights = options_.straight_runs;
   double done_units = static_cast<double>(turns_.size()) + accepted_;
   if (done()) return 1.0;
-  if (isTurn(experiment_) && turn_target_pulses_ > 0 && !history_.empty()) {
-    done_units += std::min(1.0, turnPulses(history_.back()) / turn_target_pulses_);
+  if (isTurn(experiment_) && turn_target_pulses_ > 0 && !drive_.samples().empty()) {
+    done_units += std::min(1.0, turnPulses(drive_.samples().back()) / turn_target_pulses_);
   }
   return std::min(1.0, done_units / (turns + straights));
 }

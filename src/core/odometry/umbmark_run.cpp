@@ -39,6 +39,7 @@ const char* name(UmbmarkPhase phase) {
 void UmbmarkRunOptions::validate() const {
   nominal.validate();
   umbmark().validate();
+  EncoderDriveOptions::validate();
   checkConfig(side_m > 2 * nominal.wheelbase_m && side_m < 50, "side_m",
               "must be within (2 wheelbases, 50) [m]");
   checkConfig(runs_per_direction >= 1 && runs_per_direction <= 20, "runs_per_direction",
@@ -46,10 +47,6 @@ void UmbmarkRunOptions::validate() const {
   checkConfig(drive_rate_pulses_per_s > 0, "drive_rate_pulses_per_s", "must be > 0 [pulses/s]");
   checkConfig(turn_rate_pulses_per_s > 0, "turn_rate_pulses_per_s", "must be > 0 [pulses/s]");
   checkConfig(ramp_s > 0, "ramp_s", "must be > 0 [s]");
-  checkConfig(start_duty >= 0 && start_duty < 1, "start_duty", "must be within [0, 1)");
-  checkConfig(max_duty > start_duty && max_duty <= 1, "max_duty", "must be within (start_duty, 1]");
-  checkConfig(rate_gain_per_s > 0 && rate_gain_per_s < 5, "rate_gain_per_s",
-              "must be within (0, 5) [1/s]");
   checkConfig(heading_gain_duty_per_pulse >= 0, "heading_gain_duty_per_pulse", "must be >= 0");
   checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
               "must be >= 0");
@@ -57,16 +54,18 @@ void UmbmarkRunOptions::validate() const {
   checkConfig(stop_lead_s >= 0 && stop_lead_s < 1, "stop_lead_s", "must be within [0, 1) [s]");
   checkConfig(max_return_error_fraction > 0 && max_return_error_fraction <= 4,
               "max_return_error_fraction", "must be within (0, 4]");
-  checkConfig(max_encoder_rate_pulses_per_s > 0, "max_encoder_rate_pulses_per_s", "must be > 0");
-  checkConfig(encoder_jump_window_s > 0, "encoder_jump_window_s", "must be > 0 [s]");
-  checkConfig(stall_s > 0, "stall_s", "must be > 0 [s]");
-  checkConfig(still_s > 0 && settle_s >= 0, "still_s", "still_s must be > 0, settle_s >= 0 [s]");
-  checkConfig(encoder_timeout_s > 0, "encoder_timeout_s", "must be > 0 [s]");
   checkConfig(max_duration_s >= 0, "max_duration_s", "must be >= 0 [s] (0: no limit)");
   checkConfig(error_timeout_s >= 0, "error_timeout_s", "must be >= 0 [s] (0: no limit)");
   checkConfig(run_pause_s >= 0, "run_pause_s", "must be >= 0 [s]");
   checkConfig(errors_file.empty() || errors_after_all, "errors_file",
               "needs errors_after_all (the file holds every square's error)");
+}
+
+std::string UmbmarkRunOptions::summary() const {
+  return std::to_string(runs_per_direction) + " squares of " + formatNumber(side_m, 3) +
+         " m each way (" + toString(expressions) + " expressions), return errors " +
+         (errors_after_all ? "from " + errors_file + " after all squares"
+                           : std::string("on ~return_error after each square"));
 }
 
 UmbmarkOptions UmbmarkRunOptions::umbmark() const {
@@ -78,7 +77,7 @@ UmbmarkOptions UmbmarkRunOptions::umbmark() const {
 }
 
 UmbmarkRun::UmbmarkRun(const UmbmarkRunOptions& options)
-    : options_(validated(options)), odometry_(options.nominal) {}
+    : options_(validated(options)), drive_(options, kMaxSettleS), odometry_(options.nominal) {}
 
 void UmbmarkRun::fail(const std::string& why) {
   phase_ = UmbmarkPhase::kFailed;
@@ -92,36 +91,19 @@ void UmbmarkRun::fail(const std::string& why) {
 void UmbmarkRun::addEncoders(double stamp_s, int left_ticks, int right_ticks,
                              int /*ticks_per_revolution*/, double /*now_s*/) {
   if (failed() || done()) return;
-  const EncoderTracker::Step step = encoders_.add(stamp_s, left_ticks, right_ticks);
-  if (!step.accepted || step.first) return;
-  const std::string jump = EncoderTracker::jump(step, options_.max_encoder_rate_pulses_per_s,
-                                                options_.encoder_jump_window_s);
+  EncoderTracker::Step step;
+  const std::string jump = drive_.add(stamp_s, left_ticks, right_ticks, &step);
   if (!jump.empty()) fail(jump + "; the odometry of the square cannot be trusted");
+  if (!step.accepted || step.first) return;
   // The square's odometry (the robot may be pushed while waiting for an error: only motion
   // during a run counts, and each run starts from zero).
   if (motion_ != Motion::kNone && motion_ != Motion::kPause)
     odometry_.addPulses(step.left_ticks, step.right_ticks);
-  if (!recent_.empty() && recent_.back().stamp_s == stamp_s) {
-    recent_.back() = {stamp_s, encoders_.left(), encoders_.right()};
-  } else {
-    recent_.push_back({stamp_s, encoders_.left(), encoders_.right()});
-  }
-  while (recent_.size() > 2 && recent_.front().stamp_s < stamp_s - 1.0) {
-    recent_.erase(recent_.begin());
-  }
+  drive_.keepSample();
+  drive_.forgetOlderThan(1.0);  // the wheel rates need the last kRateWindowS
 }
 
-double UmbmarkRun::wheelRate(int side) const {
-  if (recent_.size() < 2) return 0.0;
-  const Sample& last = recent_.back();
-  size_t i = recent_.size() - 1;
-  while (i > 0 && recent_[i - 1].stamp_s >= last.stamp_s - kRateWindowS) --i;
-  const Sample& first = recent_[i];
-  const double dt = last.stamp_s - first.stamp_s;
-  if (dt < 0.1) return 0.0;
-  const double d = side == 0 ? last.left - first.left : last.right - first.right;
-  return std::abs(d) / dt;
-}
+double UmbmarkRun::wheelRate(int side) const { return drive_.rate(side, kRateWindowS); }
 
 int UmbmarkRun::runInDirection() const {
   const int n = options_.runs_per_direction;
@@ -140,30 +122,23 @@ void UmbmarkRun::startRun(double now_s) {
 
 void UmbmarkRun::startLeg(double now_s) {
   motion_ = Motion::kDrive;
-  motion_clock_.reset(now_s);
-  const double start = drive_duty_ > 0 ? drive_duty_ : options_.start_duty;
-  duty_mag_[0] = duty_mag_[1] = start;
+  drive_.startMotion(now_s, drive_duty_ > 0 ? drive_duty_ : options_.start_duty);
 }
 
 void UmbmarkRun::startTurn(double now_s) {
   motion_ = Motion::kTurn;
-  motion_clock_.reset(now_s);
+  drive_.startMotion(now_s, options_.start_duty);
   for (int side = 0; side < 2; ++side) {
-    duty_mag_[side] = turn_duty_[side] > 0 ? turn_duty_[side] : options_.start_duty;
+    if (turn_duty_[side] > 0) drive_.setDuty(side, turn_duty_[side]);
   }
 }
 
 void UmbmarkRun::stop(double now_s) {
-  if (motion_ == Motion::kDrive) drive_duty_ = 0.5 * (duty_mag_[0] + duty_mag_[1]);
-  if (motion_ == Motion::kTurn) turn_duty_[0] = duty_mag_[0], turn_duty_[1] = duty_mag_[1];
+  if (motion_ == Motion::kDrive) drive_duty_ = 0.5 * (drive_.duty(0) + drive_.duty(1));
+  if (motion_ == Motion::kTurn) turn_duty_[0] = drive_.duty(0), turn_duty_[1] = drive_.duty(1);
   duties_ = {};
   motion_ = Motion::kSettle;
-  stop_s_ = now_s;
-}
-
-bool UmbmarkRun::settled(double now_s) const {
-  return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
-                                                                              encoders_);
+  drive_.stop(now_s);
 }
 
 void UmbmarkRun::onSettled(double now_s) {
@@ -256,7 +231,7 @@ void UmbmarkRun::setReturnError(const ReturnError& error) {
     finish();
     return;
   }
-  startRun(watch_.lastS());
+  startRun(drive_.lastS());
 }
 
 void UmbmarkRun::finish() {
@@ -273,12 +248,11 @@ void UmbmarkRun::finish() {
 
 WheelDuties UmbmarkRun::update(double now_s) {
   if (done() || failed()) return {};
-  const double dt = watch_.tick(now_s);
-  const std::string late =
-      watch_.failure(now_s, encoders_, motion_ != Motion::kNone, options_.max_duration_s,
-                     options_.encoder_timeout_s, "UMBmark run", name(phase_));
+  double dt = 0;
+  const std::string late = drive_.tick(now_s, motion_ != Motion::kNone, options_.max_duration_s,
+                                       "UMBmark run", name(phase_), &dt);
   if (!late.empty()) fail(late);
-  if (!encoders_.valid()) return {};
+  if (!drive_.encoders().valid()) return {};
   if (phase_ == UmbmarkPhase::kWait) startRun(now_s);
   if (awaiting_all_ && !options_.errors_file.empty()) readErrorsFile(now_s);
   if (done()) return {};
@@ -297,11 +271,11 @@ WheelDuties UmbmarkRun::update(double now_s) {
     startRun(now_s);
   }
   if (motion_ == Motion::kSettle) {
-    if (settled(now_s)) onSettled(now_s);
+    if (drive_.settled(now_s)) onSettled(now_s);
     if (motion_ != Motion::kDrive && motion_ != Motion::kTurn) return duties_ = {};
   }
-  if (motion_clock_.start(now_s) && leg_ == 0 && motion_ == Motion::kDrive) run_start_s_ = now_s;
-  const double moving_s = motion_clock_.elapsedS(now_s);
+  if (drive_.clock().start(now_s) && leg_ == 0 && motion_ == Motion::kDrive) run_start_s_ = now_s;
+  const double moving_s = drive_.clock().elapsedS(now_s);
   const DiffDriveParams& n = options_.nominal;
   const double c_mean = 0.5 * (n.left_m_per_pulse + n.right_m_per_pulse);
   const Pose2D& p = odometry_.pose();
@@ -316,13 +290,8 @@ WheelDuties UmbmarkRun::update(double now_s) {
     cy += options_.side_m * std::sin(s * k * M_PI / 2);
   }
 
-  auto follow = [&](int side, double measured, double target) {
-    duty_mag_[side] = followRate(duty_mag_[side], measured, target, options_.rate_gain_per_s, dt,
-                                 options_.max_duty);
-  };
   auto checkStall = [&](int side) {
-    const std::string stall =
-        stallOf(side, encoders_, motion_clock_, now_s, options_.stall_s, duty_mag_[side]);
+    const std::string stall = drive_.stall(side, now_s);
     if (!stall.empty()) {
       fail(std::string(name(phase_)) + " run " + std::to_string(runInDirection()) + ", leg " +
            std::to_string(leg_ + 1) + ": " + stall);
@@ -338,11 +307,11 @@ WheelDuties UmbmarkRun::update(double now_s) {
       stop(now_s);
       return duties_;
     }
-    follow(0, wheelRate(0), options_.turn_rate_pulses_per_s);
-    follow(1, wheelRate(1), options_.turn_rate_pulses_per_s);
+    drive_.follow(0, wheelRate(0), options_.turn_rate_pulses_per_s, dt);
+    drive_.follow(1, wheelRate(1), options_.turn_rate_pulses_per_s, dt);
     checkStall(0);
     checkStall(1);
-    duties_ = {-s * duty_mag_[0], s * duty_mag_[1]};
+    duties_ = {-s * drive_.duty(0), s * drive_.duty(1)};
     return duties_;
   }
 
@@ -359,8 +328,8 @@ WheelDuties UmbmarkRun::update(double now_s) {
     return duties_;
   }
   const double mean_rate = 0.5 * (wheelRate(0) + wheelRate(1));
-  follow(0, mean_rate, rate_target);
-  duty_mag_[1] = duty_mag_[0];
+  drive_.follow(0, mean_rate, rate_target, dt);
+  drive_.setDuty(1, drive_.duty(0));
   checkStall(0);
   checkStall(1);
   const double wanted = heading - std::atan(options_.cross_track_gain_per_m * offset);
@@ -369,8 +338,8 @@ WheelDuties UmbmarkRun::update(double now_s) {
   heading_integral_ += error_pulses * dt;
   const double steer = options_.heading_gain_duty_per_pulse * error_pulses +
                        options_.heading_integral_duty_per_pulse_s * heading_integral_;
-  duties_ = {std::clamp(duty_mag_[0] - 0.5 * steer, 0.0, options_.max_duty),
-             std::clamp(duty_mag_[0] + 0.5 * steer, 0.0, options_.max_duty)};
+  duties_ = {std::clamp(drive_.duty(0) - 0.5 * steer, 0.0, options_.max_duty),
+             std::clamp(drive_.duty(0) + 0.5 * steer, 0.0, options_.max_duty)};
   return duties_;
 }
 

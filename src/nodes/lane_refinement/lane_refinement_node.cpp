@@ -1,6 +1,5 @@
 #include "lane_refinement_node.h"
 
-#include <camera_calibration_parsers/parse.h>
 #include <std_srvs/Empty.h>
 
 #include <cmath>
@@ -8,88 +7,15 @@
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
 #include "autocal_ros/msg_conversion.h"
-#include "autocal_ros/params.h"
-#include "autocal_ros/tag_params.h"
 
 namespace autocal {
 namespace wheels {
 
-void LaneRefinementNodeOptions::validate() const {
-  ros_layer::checkParam(!veh.empty() && veh.find('/') == std::string::npos, "veh",
-                        "must be a non-empty name without '/'");
-  ros_layer::checkParam(!calibration_root.empty(), "calibration_root", "must not be empty");
-  ros_layer::checkLength("tag_size_m", refiner.detector.tag_size_m, ranges::kTagSize);
-  ros_layer::checkLength("camera_height_m", refiner.mount.height_m, ranges::kCameraHeight);
-  ros_layer::checkParam(image_transport == "compressed" || image_transport == "raw",
-                        "image_transport",
-                        "must be 'compressed' or 'raw', not '" + image_transport + "'");
-  ros_layer::checkParam(std::isfinite(control_rate_hz) && control_rate_hz >= 10, "control_rate_hz",
-                        "must be >= 10 Hz");
-  ros_layer::checkParam(std::isfinite(status_rate_hz) && status_rate_hz > 0, "status_rate_hz",
-                        "must be > 0");
-  ros_layer::checkParam(std::isfinite(service_wait_s) && service_wait_s >= 0, "service_wait_s",
-                        "must be >= 0");
-  ros_layer::checkParam(std::isfinite(trim_poll_s) && trim_poll_s > 0, "trim_poll_s",
-                        "must be > 0");
-  ros_layer::checkParam(std::isfinite(max_duration_s) && max_duration_s >= 0, "max_duration_s",
-                        "must be >= 0");
-  ros_layer::validateParams(refiner);
-}
-
-namespace {
-
-LaneRefinementNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
-  const ros_layer::ParamReader p(pnh, "lane_refinement_node");
-  LaneRefinementNodeOptions o;
-  o.veh = ros_layer::defaultVeh(nh);
-  p.get("veh", o.veh);
-  p.get("calibration_root", o.calibration_root);
-  p.get("intrinsics_file", o.intrinsics_file);
-  p.get("image_transport", o.image_transport);
-  p.get("control_rate_hz", o.control_rate_hz);
-  p.get("status_rate_hz", o.status_rate_hz);
-  p.get("stop_after_pass", o.stop_after_pass);
-  p.get("save_calibration", o.save_calibration);
-  p.get("service_wait_s", o.service_wait_s);
-  p.get("trim_poll_s", o.trim_poll_s);
-  p.get("max_duration_s", o.max_duration_s);
-
-  LaneRefinerOptions& r = o.refiner;
-  ros_layer::readTagParams(p, r.detector, r.heading, r.mount);
-  p.get("first_tag_id", r.first_tag_id);
-  p.get("num_tags", r.num_tags);
-  p.get("start_max_distance_m", r.start_max_distance_m);
-  p.get("start_max_heading_rad", r.start_max_heading_rad);
-  p.get("start_max_lateral_m", r.start_max_lateral_m);
-  p.get("speed_mps", r.speed_mps);
-  p.get("heading_gain_per_s", r.heading_gain_per_s);
-  p.get("max_omega_radps", r.max_omega_radps);
-  p.get("orient_tolerance_rad", r.orient_tolerance_rad);
-  p.get("max_orient_s", r.max_orient_s);
-  p.get("lateral_gain_rad_per_m", r.lateral_gain_rad_per_m);
-  p.get("max_lateral_correction_rad", r.max_lateral_correction_rad);
-  p.get("settle_s", r.settle_s);
-  p.get("straight_m", r.straight_m);
-  p.get("max_straight_deviation_rad", r.max_straight_deviation_rad);
-  p.get("min_frames_per_part", r.min_frames_per_part);
-  p.get("min_part_m", r.min_part_m);
-  p.get("max_part_deviation", r.max_part_deviation);
-  p.get("min_parts_per_pass", r.min_parts_per_pass);
-  p.get("max_heading_rad", r.max_heading_rad);
-  p.get("tags_lost_s", r.tags_lost_s);
-  p.get("max_pass_s", r.max_pass_s);
-  p.get("stable_passes", r.stable_passes);
-  p.get("stable_tolerance", r.stable_tolerance);
-  p.get("apply_threshold", r.apply_threshold);
-  p.get("drive_to_first_tag", r.drive_to_first_tag);
-  o.validate();
-  return o;
-}
-
-}  // namespace
-
 LaneRefinementNode::LaneRefinementNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), options_(readOptions(nh, pnh)) {
+    : nh_(nh),
+      pnh_(pnh),
+      options_(readLaneRefinementNodeOptions(nh, pnh)),
+      throttle_(options_.status_rate_hz) {
   kinematics_path_ = kinematicsPath(options_.calibration_root, options_.veh);
   // The kinematics the robot drives with: the file, and the running node's trim when it is set
   // (it may differ from the file until saved).
@@ -132,8 +58,7 @@ void LaneRefinementNode::apply(double trim) {
        {"trim_before", trim_before_},
        {"passes", static_cast<double>(refiner_->passes().size())},
        {"applications", static_cast<double>(refiner_->applications())}});
-  last_phase_ = "lane/applied";
-  last_status_ = ros::Time::now();
+  throttle_.due("lane/applied", ros::Time::now().toSec(), true);
   trim_before_ = trim;
 }
 
@@ -165,16 +90,12 @@ void LaneRefinementNode::publishDetections(const ros::Time& stamp) {
 
 void LaneRefinementNode::publishStatus(bool force) {
   const std::string phase = refiner_->inPass() ? "lane/pass" : "lane/idle";
-  const ros::Time now = ros::Time::now();
-  if (!force && (phase == last_phase_ || last_phase_ == "lane/applied") &&
-      (now - last_status_).toSec() < 1.0 / options_.status_rate_hz)
-    return;
-  if (phase != last_phase_ || refiner_->passes().size() != last_passes_)
-    ROS_INFO("lane_refinement_node: %s: %s", phase.c_str(), refiner_->describe().c_str());
-  last_phase_ = phase;
-  last_status_ = now;
-  last_passes_ = refiner_->passes().size();
   const auto& passes = refiner_->passes();
+  // At once on a new phase or pass (and logged), otherwise at ~status_rate_hz.
+  if (!throttle_.due(phase + " " + std::to_string(passes.size()), ros::Time::now().toSec(), force))
+    return;
+  if (throttle_.keyChanged())
+    ROS_INFO("lane_refinement_node: %s: %s", phase.c_str(), refiner_->describe().c_str());
   const double last_estimate =
       !passes.empty() && passes.back().estimated ? passes.back().estimate : std::nan("");
   status_.running(phase, -1, refiner_->describe(),
@@ -187,15 +108,8 @@ void LaneRefinementNode::publishStatus(bool force) {
 }
 
 void LaneRefinementNode::run() {
-  sensor_msgs::CameraInfo info;
-  std::string camera_name;
-  if (!camera_calibration_parsers::readCalibration(options_.intrinsics_file, camera_name, info) ||
-      info.K[0] <= 0) {
-    throw ConfigError("the camera intrinsics '" + options_.intrinsics_file +
-                      "' cannot be read (~intrinsics_file; the refinement needs the calibrated "
-                      "camera)");
-  }
-  const CameraIntrinsics intrinsics = ros_layer::fromCameraInfo(info);
+  const CameraIntrinsics intrinsics = ros_layer::readIntrinsicsFile(
+      options_.intrinsics_file, "~intrinsics_file; the refinement needs the calibrated camera");
   refiner_ = std::make_unique<LaneRefiner>(options_.refiner, intrinsics);
   ROS_INFO("lane_refinement_node: intrinsics %s (fx %.1f), kinematics %s (trim %.5f), first tag %d",
            options_.intrinsics_file.c_str(), intrinsics.fx, kinematics_path_.c_str(),

@@ -20,6 +20,7 @@
 #include <memory>
 #include <string>
 
+#include "autocal/status_throttle.h"
 #include "autocal/wheels/lane_refiner.h"
 #include "autocal_ros/msgs.h"
 #include "autocal_ros/node_runtime.h"
@@ -51,6 +52,11 @@ struct LaneRefinementNodeOptions {
   void validate() const;
 };
 
+/// The node's private parameters that are set (lane_refinement_options.cpp), validated; ConfigError
+/// names the first bad key.
+LaneRefinementNodeOptions readLaneRefinementNodeOptions(const ros::NodeHandle& nh,
+                                                        const ros::NodeHandle& pnh);
+
 class LaneRefinementNode {
  public:
   LaneRefinementNode(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -73,11 +79,9 @@ class LaneRefinementNode {
   std::unique_ptr<ros_layer::EncoderInput> encoders_;
   std::exception_ptr error_;
   std::string kinematics_path_;
-  ros::Time last_status_;
-  std::string last_phase_;
+  StatusThrottle throttle_;
   double last_trim_poll_s_ = -1e9;
   double trim_before_ = 0;
-  size_t last_passes_ = 0;
 };
 
 }  // namespace wheels

@@ -8,6 +8,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/io/atomic_file.h"
+#include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal_ros/params.h"
 
@@ -53,6 +54,14 @@ OdometryCalibrationNodeOptions checked(const OdometryCalibrationNodeOptions& o) 
   return o;
 }
 
+/// The drive's keys, which both methods have.
+void readDrive(const ros_layer::ParamReader& p, EncoderDriveOptions& d) {
+  p.get("start_duty", d.start_duty);
+  p.get("max_duty", d.max_duty);
+  p.get("stall_s", d.stall_s);
+  p.get("encoder_timeout_s", d.encoder_timeout_s);
+}
+
 OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::NodeHandle& pnh) {
   const ros_layer::ParamReader p(pnh, "odometry_calibration_node");
   OdometryCalibrationNodeOptions o;
@@ -77,11 +86,8 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
     }
     p.get("drive_rate_pulses_per_s", u.drive_rate_pulses_per_s);
     p.get("turn_rate_pulses_per_s", u.turn_rate_pulses_per_s);
-    p.get("start_duty", u.start_duty);
-    p.get("max_duty", u.max_duty);
+    readDrive(p, u);
     p.get("max_return_error_fraction", u.max_return_error_fraction);
-    p.get("stall_s", u.stall_s);
-    p.get("encoder_timeout_s", u.encoder_timeout_s);
     p.get("error_timeout_s", u.error_timeout_s);
     p.get("max_duration_s", u.max_duration_s);
     p.get("errors_file", u.errors_file);
@@ -96,8 +102,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("pivot_rate_pulses_per_s", r.pivot_rate_pulses_per_s);
   p.get("spin_rate_pulses_per_s", r.spin_rate_pulses_per_s);
   p.get("straight_rate_pulses_per_s", r.straight_rate_pulses_per_s);
-  p.get("start_duty", r.start_duty);
-  p.get("max_duty", r.max_duty);
+  readDrive(p, r);
   p.get("straight_length_m", r.straight_length_m);
   p.get("straight_runs", r.straight_runs);
   p.get("max_straight_retries", r.max_straight_retries);
@@ -108,8 +113,6 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("max_secondary_ratio", r.detection.max_secondary_ratio);
   p.get("min_range_spread_m", r.min_range_spread_m);
   p.get("max_invalid_range_fraction", r.max_invalid_range_fraction);
-  p.get("stall_s", r.stall_s);
-  p.get("encoder_timeout_s", r.encoder_timeout_s);
   p.get("range_timeout_s", r.range_timeout_s);
   p.get("length_timeout_s", r.length_timeout_s);
   p.get("max_duration_s", r.max_duration_s);
@@ -135,36 +138,30 @@ OdometryCalibrationNode::OdometryCalibrationNode(ros::NodeHandle nh, ros::NodeHa
             "waiting for the encoders and the range sensor") {}
 
 std::unique_ptr<Stage> OdometryCalibrationNode::build(int ticks_per_revolution) {
-  UahRunOptions r = options_.run;
   const int resolution =
       options_.ticks_per_revolution > 0 ? options_.ticks_per_revolution : ticks_per_revolution;
-  r.nominal =
+  const DiffDriveParams nominal =
       DiffDriveParams::fromWheel(2 * options_.wheel_radius_m, resolution, options_.wheelbase_m);
-  const std::string& root = options_.stage.calibration_root;
+  std::unique_ptr<Stage> stage;
+  std::string plan;
   if (umbmark()) {
     UmbmarkRunOptions u = options_.umbmark;
-    u.nominal = r.nominal;
-    const std::string errors = u.errors_after_all ? "from " + u.errors_file + " after all squares"
-                                                  : "on ~return_error after each square";
-    ROS_INFO(
-        "odometry_calibration_node: UMBmark: nominal radius %.4f m, wheelbase %.4f m, %d "
-        "ticks/rev; %d squares of %.2f m each way (%s expressions), return errors %s; "
-        "calibration root %s",
-        options_.wheel_radius_m, options_.wheelbase_m, resolution, u.runs_per_direction, u.side_m,
-        toString(u.expressions).c_str(), errors.c_str(), root.c_str());
-    auto stage = std::make_unique<UmbmarkRun>(u);
-    umbmark_ = stage.get();
-    return stage;
+    u.nominal = nominal;
+    plan = "UMBmark: " + u.summary();
+    stage = std::make_unique<UmbmarkRun>(u);
+    umbmark_ = static_cast<UmbmarkRun*>(stage.get());
+  } else {
+    UahRunOptions r = options_.run;
+    r.nominal = nominal;
+    plan = "UAH: " + r.summary();
+    stage = std::make_unique<UahRun>(r);
+    uah_ = static_cast<UahRun*>(stage.get());
   }
   ROS_INFO(
-      "odometry_calibration_node: nominal radius %.4f m, wheelbase %.4f m, %d ticks/rev; %d rounds "
-      "x %d pivot experiments per wheel, spin, %d straight runs of %.2f m (heading within %.2f "
-      "deg, up to %d retries); calibration root %s",
-      options_.wheel_radius_m, options_.wheelbase_m, resolution, r.rounds, r.pivot_experiments,
-      r.straight_runs, r.straight_length_m, r.straight.max_heading_deviation_rad * 180 / M_PI,
-      r.max_straight_retries, root.c_str());
-  auto stage = std::make_unique<UahRun>(r);
-  uah_ = stage.get();
+      "odometry_calibration_node: nominal radius %.4f m, wheelbase %.4f m, %d ticks/rev; %s; "
+      "calibration root %s",
+      options_.wheel_radius_m, options_.wheelbase_m, resolution, plan.c_str(),
+      options_.stage.calibration_root.c_str());
   return stage;
 }
 
@@ -179,37 +176,22 @@ void OdometryCalibrationNode::run() {
 }
 
 void OdometryCalibrationNode::onReturnError(double x_m, double y_m) {
-  if (!umbmark_ || !umbmark_->needsReturnError()) {
-    ROS_WARN(
-        "odometry_calibration_node: a return error (%.4f, %.4f) m arrived while no UMBmark "
-        "square waits for one: ignored",
-        x_m, y_m);
-    return;
+  const std::string which = umbmark_ ? std::string(name(umbmark_->phase())) + " run " +
+                                           std::to_string(umbmark_->runInDirection())
+                                     : "";
+  if (node_.hand("a return error (" + formatNumber(x_m, 4) + ", " + formatNumber(y_m, 4) + ") m",
+                 umbmark_ && umbmark_->needsReturnError(), [&] {
+                   umbmark_->setReturnError({x_m, y_m});
+                 })) {
+    ROS_INFO("odometry_calibration_node: %s: return error (%.4f, %.4f) m", which.c_str(), x_m, y_m);
   }
-  const std::string which =
-      std::string(name(umbmark_->phase())) + " run " + std::to_string(umbmark_->runInDirection());
-  try {
-    umbmark_->setReturnError({x_m, y_m});
-  } catch (...) {
-    *node_.error() = std::current_exception();
-    return;
-  }
-  ROS_INFO("odometry_calibration_node: %s: return error (%.4f, %.4f) m", which.c_str(), x_m, y_m);
 }
 
 void OdometryCalibrationNode::onStraightLength(double length_m) {
-  if (!uah_ || !uah_->needsStraightLength()) {
-    ROS_WARN(
-        "odometry_calibration_node: a straight length (%.4f m) arrived while no run waits for "
-        "one: ignored",
-        length_m);
-    return;
-  }
-  const int run = uah_->straightRun();
-  try {
-    uah_->setStraightLength(length_m);
-  } catch (...) {
-    *node_.error() = std::current_exception();
+  const int run = uah_ ? uah_->straightRun() : 0;
+  if (!node_.hand("a straight length (" + formatNumber(length_m, 4) + " m)",
+                  uah_ && uah_->needsStraightLength(),
+                  [&] { uah_->setStraightLength(length_m); })) {
     return;
   }
   const StraightRun& last = uah_->straightRuns().back();

@@ -191,14 +191,8 @@ std::unique_ptr<Stage> WheelCalibrationNode::build() {
 }
 
 CameraIntrinsics WheelCalibrationNode::readIntrinsics() const {
-  sensor_msgs::CameraInfo info;
-  std::string camera_name;
-  if (!camera_calibration_parsers::readCalibration(options_.intrinsics_file, camera_name, info) ||
-      info.K[0] <= 0) {
-    throw ConfigError("the camera intrinsics '" + options_.intrinsics_file +
-                      "' cannot be read (the wheel stage needs the calibrated camera)");
-  }
-  return ros_layer::fromCameraInfo(info);
+  return ros_layer::readIntrinsicsFile(options_.intrinsics_file,
+                                       "the wheel stage needs the calibrated camera");
 }
 
 }  // namespace wheels

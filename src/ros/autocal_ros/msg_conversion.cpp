@@ -1,5 +1,6 @@
 #include "autocal_ros/msg_conversion.h"
 
+#include <camera_calibration_parsers/parse.h>
 #include <camera_calibration_parsers/parse_yml.h>
 
 #include <cmath>
@@ -69,6 +70,14 @@ CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info) {
     if (!std::isfinite(v)) throw InputError("camera_info: D is not finite");
   }
   return in;
+}
+
+CameraIntrinsics readIntrinsicsFile(const std::string& path, const std::string& why) {
+  sensor_msgs::CameraInfo info;
+  std::string camera_name;
+  if (!camera_calibration_parsers::readCalibration(path, camera_name, info) || info.K[0] <= 0)
+    throw ConfigError("the camera intrinsics '" + path + "' cannot be read (" + why + ")");
+  return fromCameraInfo(info);
 }
 
 std::string cameraInfoYaml(const CameraIntrinsics& intrinsics, const std::string& camera_name) {

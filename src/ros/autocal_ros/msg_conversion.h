@@ -35,6 +35,10 @@ sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& intrinsics);
 /// The intrinsics of a camera_info (K and D; P and R are not needed). Throws InputError for an
 /// unknown distortion model, a wrong number of coefficients, a zero size or a non-finite K.
 CameraIntrinsics fromCameraInfo(const sensor_msgs::CameraInfo& info);
+/// The intrinsics in a camera calibration file (camera_calibration_parsers' YAML or INI). Throws
+/// ConfigError "the camera intrinsics '<path>' cannot be read (<why>)" when it cannot be read or
+/// has no focal length.
+CameraIntrinsics readIntrinsicsFile(const std::string& path, const std::string& why);
 /// The camera_info YAML text of ROS (camera_calibration_parsers), as `camera_intrinsic/<veh>.yaml`
 /// holds it. Throws IoError when the parsers refuse.
 std::string cameraInfoYaml(const CameraIntrinsics& intrinsics, const std::string& camera_name);

@@ -189,5 +189,19 @@ void StageNode::finish(const Hooks& hooks) {
                result.figures, result.file);
 }
 
+bool StageNode::hand(const std::string& what, bool awaited, const std::function<void()>& give) {
+  if (!awaited) {
+    ROS_WARN("%s: %s arrived while none is awaited: ignored", node_name_.c_str(), what.c_str());
+    return false;
+  }
+  try {
+    give();
+  } catch (...) {
+    error_ = std::current_exception();
+    return false;
+  }
+  return true;
+}
+
 }  // namespace ros_layer
 }  // namespace autocal

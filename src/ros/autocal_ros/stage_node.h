@@ -87,6 +87,11 @@ class StageNode {
   StatusPublisher& status() { return status_; }
   /// Where a callback keeps its exception for the loop to rethrow.
   std::exception_ptr* error() { return &error_; }
+  /// Hands a measured input (a person's, or a helper's in the simulator) to the Stage from a
+  /// callback: `give` when `awaited`, and its exception fails the stage at the loop's next step;
+  /// otherwise a warning "<what> arrived while none is awaited: ignored". Returns whether it was
+  /// given.
+  bool hand(const std::string& what, bool awaited, const std::function<void()>& give);
   /// The DONE of ~after_stage (empty before).
   const CalibrationStatus& afterStageDone() const { return after_stage_done_; }
   /// Frames of another size are dropped (FrameInput::holdToSize).

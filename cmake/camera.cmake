@@ -31,7 +31,8 @@ if(CATKIN_ENABLE_TESTING)
 endif()
 
 if(CATKIN_ENABLE_TESTING)
-  autocal_core_gtest(test_camera_synthetic SOURCES test/camera/test_camera_synthetic.cpp LIBS autocal_core)
+  autocal_core_gtest(test_camera_synthetic SOURCES test/camera/test_camera_synthetic.cpp
+    LIBS autocal_core autocal_sim_core)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

@@ -15,6 +15,7 @@
 #include "autocal/camera/chessboard.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
+#include "autocal/sim/camera_model.h"
 
 using namespace autocal;
 using namespace autocal::camera;
@@ -325,24 +326,39 @@ std::vector<std::vector<cv::Point2f>> observe(const Truth& t, const std::vector<
   return views;
 }
 
-/// The true projection error at `pixel`: its true ray projected with the calibrated model [px].
-double trueError(const Truth& t, const CameraIntrinsics& calibrated, const cv::Point2d& pixel) {
-  std::vector<cv::Point2d> raw{pixel}, normalised, projected;
-  if (t.model == DistortionModel::kEquidistant) {
-    cv::fisheye::undistortPoints(raw, normalised, cv::Mat(t.k), cv::Mat(t.d));
-  } else {
-    cv::undistortPoints(raw, normalised, cv::Mat(t.k), cv::Mat(t.d));
-  }
-  const std::vector<cv::Point3d> ray{{normalised[0].x, normalised[0].y, 1.0}};
+/// The true lens of `t` as intrinsics.
+CameraIntrinsics lensOf(const Truth& t) {
+  CameraIntrinsics lens;
+  lens.width = kImage.width;
+  lens.height = kImage.height;
+  lens.fx = t.k(0, 0), lens.fy = t.k(1, 1), lens.cx = t.k(0, 2), lens.cy = t.k(1, 2);
+  lens.distortion_model = t.model;
+  lens.distortion_coefficients = t.d;
+  return lens;
+}
+
+/// The ray of `pixel` through `lens` projected with `model` [px from the pixel]. The ray comes from
+/// the simulator's lens (Newton's method to 1e-12), independent of the code under test.
+double rayThrough(const CameraIntrinsics& lens, const CameraIntrinsics& model,
+                  const cv::Point2d& pixel) {
+  Eigen::Vector3d r;
+  if (!sim::CameraModel(lens).ray(pixel.x, pixel.y, &r)) return std::nan("");
+  const std::vector<cv::Point3d> ray{{r.x() / r.z(), r.y() / r.z(), 1.0}};
+  std::vector<cv::Point2d> projected;
   const cv::Vec3d zero(0, 0, 0);
-  if (calibrated.distortion_model == DistortionModel::kEquidistant) {
-    cv::fisheye::projectPoints(ray, projected, zero, zero, cv::Mat(calibrated.cameraMatrix()),
-                               cv::Mat(calibrated.distortion_coefficients));
+  if (model.distortion_model == DistortionModel::kEquidistant) {
+    cv::fisheye::projectPoints(ray, projected, zero, zero, cv::Mat(model.cameraMatrix()),
+                               cv::Mat(model.distortion_coefficients));
   } else {
-    cv::projectPoints(ray, zero, zero, cv::Mat(calibrated.cameraMatrix()),
-                      cv::Mat(calibrated.distortion_coefficients), projected);
+    cv::projectPoints(ray, zero, zero, cv::Mat(model.cameraMatrix()),
+                      cv::Mat(model.distortion_coefficients), projected);
   }
   return std::hypot(projected[0].x - pixel.x, projected[0].y - pixel.y);
+}
+
+/// The true projection error at `pixel`: its true ray projected with the calibrated model [px].
+double trueError(const Truth& t, const CameraIntrinsics& calibrated, const cv::Point2d& pixel) {
+  return rayThrough(lensOf(t), calibrated, pixel);
 }
 
 struct Honesty {
@@ -402,6 +418,31 @@ TEST(CameraUncertainty, PredictionMatchesRepeatedCalibrations) {
   // direction) and sqrt(2) (round) for an honest prediction.
   EXPECT_GT(h.median_ratio, 0.7);
   EXPECT_LT(h.median_ratio, 1.6);
+}
+
+// A wide lens that bends hard at the image's edges (the fleet's widest: fx 280, k1 -0.40). OpenCV's
+// fixed-point undistortion alone leaves most rays of a 16 x 12 grid off, some by hundreds of
+// pixels; the projection differences behind the cross-validation (and the rays behind the
+// uncertainty) are those of exact rays: a lens against itself differs by nothing, and against a
+// refocused copy by what an independent ray gives.
+TEST(CameraUncertainty, ExactRaysForAWideLens) {
+  Truth t;
+  t.k = cv::Matx33d(280, 0, 336, 0, 282.5, 215, 0, 0, 1);
+  t.d = {-0.40, 0.09, 0.004, -0.004, 0.0};
+  const CameraIntrinsics lens = lensOf(t);
+  CameraIntrinsics refocused = lens;
+  refocused.fx *= 1.01, refocused.fy *= 1.01;
+  const std::vector<double> self = projectionDifferences(lens, lens, 16, 12);
+  const std::vector<double> d = projectionDifferences(lens, refocused, 16, 12);
+  ASSERT_EQ(d.size(), 192u);
+  for (int r = 0; r < 12; ++r) {
+    for (int c = 0; c < 16; ++c) {
+      const size_t i = static_cast<size_t>(r * 16 + c);
+      const cv::Point2d pixel((c + 0.5) * 640 / 16, (r + 0.5) * 480 / 12);
+      EXPECT_LT(self[i], 1e-6) << "cell " << r << ", " << c;  // NaN fails too
+      EXPECT_NEAR(d[i], rayThrough(lens, refocused, pixel), 1e-6) << "cell " << r << ", " << c;
+    }
+  }
 }
 
 // The fisheye model's fit gives no uncertainty rather than a dishonest one (over synthetic refits

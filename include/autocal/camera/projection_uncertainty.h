@@ -22,8 +22,10 @@ struct ProjectionUncertainty {
   bool valid = false;      ///< false: the model or the fit gives none (equidistant)
   int cols = 0, rows = 0;  ///< the grid over the image (cell centres)
   /// Per grid cell, row-major: the standard deviation of the projection in its worst direction
-  /// [px] (the square root of the covariance's larger eigenvalue).
+  /// [px] (the square root of the covariance's larger eigenvalue); NaN where the model maps no ray
+  /// to the cell's centre (not counted in the figures below).
   std::vector<double> sigma_px;
+  int unmapped = 0;
   double corner_noise_px = 0;      ///< sigma estimated from the residuals [px]
   double worst_px = 0;             ///< the largest sigma_px
   double rms_px = 0;               ///< root mean square of sigma_px over the grid

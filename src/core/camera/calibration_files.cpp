@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -106,7 +107,8 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
       << "\n  lower_half_worst_px: " << formatNumber(pu.lower_half_worst_px, 4)
       << "\n  sigma_px: [";
     for (size_t i = 0; i < pu.sigma_px.size(); ++i)
-      y << (i ? ", " : "") << formatNumber(pu.sigma_px[i], 4);
+      y << (i ? ", " : "")
+        << (std::isfinite(pu.sigma_px[i]) ? formatNumber(pu.sigma_px[i], 4) : ".nan");
     y << "]\n";
   }
   const HalvesCrossValidation& h = result.halves;

@@ -53,7 +53,28 @@ Projection projectWithJacobians(const std::vector<cv::Point3d>& points, const cv
   return out;
 }
 
-/// Each pixel's ray under `in`, as a point at depth 1 in the camera frame.
+/// The camera frame's own pose: no rotation, no translation.
+cv::Mat zero3() { return cv::Mat::zeros(3, 1, CV_64F); }
+
+/// How far the ray (x, y, 1) projects from `pixel` under `in` [px], and the Jacobian of its
+/// projection with respect to x and y (with no rotation or translation, the derivative by the
+/// translation's x and y is that by the point's).
+double rayResidual(const CameraIntrinsics& in, const cv::Point2d& xy, const cv::Point2d& pixel,
+                   cv::Point2d* residual, cv::Matx22d* jacobian) {
+  const Projection p = projectWithJacobians({cv::Point3d(xy.x, xy.y, 1.0)}, zero3(), zero3(), in);
+  *residual = pixel - p.points[0];
+  if (jacobian) {
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 2; ++c) (*jacobian)(r, c) = p.pose.at<double>(r, 3 + c);
+  }
+  return std::hypot(residual->x, residual->y);
+}
+
+/// Each pixel's ray under `in`, as a point at depth 1 in the camera frame: OpenCV's undistortion,
+/// then Newton's method on the projection itself. OpenCV's fixed-point undistortion alone does
+/// not converge over much of the image of a strongly distorted lens (plumb_bob k1 = -0.4: 152 of
+/// a 16 x 12 grid's cells came back off, some by hundreds of pixels). NaN where no ray projects
+/// within 1e-6 px of the pixel (beyond where the model maps).
 std::vector<cv::Point3d> rays(const CameraIntrinsics& in, const std::vector<cv::Point2d>& pixels) {
   std::vector<cv::Point2d> normalised;
   if (fisheye(in)) {
@@ -64,12 +85,38 @@ std::vector<cv::Point3d> rays(const CameraIntrinsics& in, const std::vector<cv::
                         cv::Mat(in.distortion_coefficients));
   }
   std::vector<cv::Point3d> out;
-  for (const cv::Point2d& n : normalised) out.emplace_back(n.x, n.y, 1.0);
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    // Start from OpenCV's answer or the pinhole one, whichever lands nearer.
+    const cv::Point2d pinhole((pixels[i].x - in.cx) / in.fx, (pixels[i].y - in.cy) / in.fy);
+    cv::Point2d xy = normalised[i], residual, pinhole_residual;
+    cv::Matx22d jacobian;
+    double error = rayResidual(in, xy, pixels[i], &residual, &jacobian);
+    if (!(error < 1e300) ||
+        rayResidual(in, pinhole, pixels[i], &pinhole_residual, nullptr) < error) {
+      xy = pinhole;
+      error = rayResidual(in, xy, pixels[i], &residual, &jacobian);
+    }
+    for (int it = 0; it < 50 && error > 1e-9; ++it) {
+      const cv::Vec2d step = jacobian.solve(cv::Vec2d(residual.x, residual.y), cv::DECOMP_SVD);
+      // A step that does not reduce the error is halved (a Newton step may overshoot where the
+      // distortion bends hard).
+      double scale = 1.0;
+      cv::Point2d next, next_residual;
+      cv::Matx22d next_jacobian;
+      double next_error = error;
+      for (int h = 0; h < 20; ++h, scale *= 0.5) {
+        next = xy + scale * cv::Point2d(step[0], step[1]);
+        next_error = rayResidual(in, next, pixels[i], &next_residual, &next_jacobian);
+        if (next_error < error) break;
+      }
+      if (!(next_error < error)) break;
+      xy = next, residual = next_residual, jacobian = next_jacobian, error = next_error;
+    }
+    out.push_back(error <= 1e-6 ? cv::Point3d(xy.x, xy.y, 1.0)
+                                : cv::Point3d(std::nan(""), std::nan(""), 1.0));
+  }
   return out;
 }
-
-/// The camera frame's own pose: no rotation, no translation.
-cv::Mat zero3() { return cv::Mat::zeros(3, 1, CV_64F); }
 
 }  // namespace
 
@@ -146,13 +193,20 @@ ProjectionUncertainty projectionUncertainty(
       const double mean = 0.5 * (s(0, 0) + s(1, 1));
       const double half = std::hypot(0.5 * (s(0, 0) - s(1, 1)), s(0, 1));
       const double sigma = std::sqrt(std::max(0.0, mean + half));
+      if (!std::isfinite(mean + half)) {  // no ray: beyond where the model maps
+        out.sigma_px.push_back(std::nan(""));
+        ++out.unmapped;
+        continue;
+      }
       out.sigma_px.push_back(sigma);
       sum += sigma * sigma;
       out.worst_px = std::max(out.worst_px, sigma);
       if (2 * r >= rows) out.lower_half_worst_px = std::max(out.lower_half_worst_px, sigma);
     }
   }
-  out.rms_px = std::sqrt(sum / static_cast<double>(out.sigma_px.size()));
+  const size_t mapped = out.sigma_px.size() - static_cast<size_t>(out.unmapped);
+  if (mapped == 0) return out;
+  out.rms_px = std::sqrt(sum / static_cast<double>(mapped));
   out.valid = true;
   return out;
 }

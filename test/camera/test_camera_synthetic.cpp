@@ -489,6 +489,18 @@ TEST(CameraUncertainty, HalvesAgreeOnlyWhenOneLensExplainsTheViews) {
   EXPECT_GT(one.halves.ratio, 0.5);
   EXPECT_LT(one.halves.ratio, 2.0);
   EXPECT_GT(moved.halves.ratio, 3.0);
+  // The gate refuses the lens that moved, with a reason to act on, at a limit below its ratio
+  // (and, by default, halves of fewer than 10 views are not judged).
+  QualityGateOptions gate;
+  gate.max_halves_ratio = 2.5;
+  gate.max_lower_half_uncertainty_px = 10;  // this noise (0.2 px) leaves the lower corners ~2 px
+  for (const auto& r : checkQuality(one, gate)) ADD_FAILURE() << r;
+  const std::vector<std::string> refused = checkQuality(moved, gate);
+  ASSERT_EQ(refused.size(), 1u);
+  EXPECT_NE(refused[0].find("alternate halves of the views differ"), std::string::npos);
+  EXPECT_NE(refused[0].find("try another distortion_model"), std::string::npos);
+  gate.min_views_per_half = 11;
+  EXPECT_TRUE(checkQuality(moved, gate).empty());
   // Too few views to split: none.
   EXPECT_FALSE(calibrate(observe(t, boardPoses(t, 7, 60, 420, 3), 0.2, 5), kImage, testBoard(), o)
                    .halves.valid);
@@ -514,6 +526,19 @@ TEST(CameraUncertainty, UpperHalfViewsLeaveTheLowerHalfUncertain) {
   EXPECT_GT(u.lower_half_worst_px, 3 * w.lower_half_worst_px);
   EXPECT_EQ(u.lower_half_worst_px, u.worst_px);
   EXPECT_GT(u.rms_px, 3 * w.rms_px);
+  // The default gate refuses the upper band's calibration with a reason a person can act on; a
+  // limit between the two passes the whole image's (this noise, 0.2 px, and no board at the
+  // image's corners leave even it 5 px there).
+  QualityGateOptions gate;
+  gate.max_lower_half_uncertainty_px = 2 * w.lower_half_worst_px;
+  EXPECT_TRUE(checkQuality(whole, gate).empty());
+  EXPECT_FALSE(checkQuality(upper, gate).empty());
+  const std::vector<std::string> refused = checkQuality(upper, QualityGateOptions());
+  ASSERT_FALSE(refused.empty());
+  EXPECT_NE(refused.back().find("the lower half of the image is not pinned down"),
+            std::string::npos)
+      << refused.back();
+  EXPECT_NE(refused.back().find("add boards the camera sees low in its image"), std::string::npos);
 }
 
 namespace {

@@ -1,5 +1,6 @@
 // The report's view of the camera stage's audit (camera_intrinsic/<veh>_views/views.yaml) and the
-// run's gates: each stage's DONE, and the report's own gates on the figures. ROS-free.
+// run's gates: each stage's own verdict (its DONE after its quality gate, or its FAILED), with the
+// figures its gate judged. The report adds no gate of its own: there is one gate. ROS-free.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -38,12 +39,6 @@ double cornerCoverage(const ViewsAudit& audit, int cols = 8, int rows = 6);
 struct ReportOptions {
   double wheel_radius_m = 0.0318;  ///< for the believed path (the kinematics file's, when written)
   double baseline_m = 0.1;
-
-  /// Gates the report adds to the stages' own: the camera's RMS reprojection error and its corner
-  /// coverage of the image.
-  /// (The simulator's default world, boards at one height around the robot, gives about 46 %.)
-  double max_camera_rms_px = 1.0;
-  double min_corner_coverage = 0.4;
 };
 
 struct Gate {
@@ -52,9 +47,10 @@ struct Gate {
   std::string detail;
 };
 
-/// Each stage's DONE, and the report's own gates on the figures.
-std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
-                                const ReportOptions& options);
+/// One gate per stage: its own verdict ("done", its failure, or how far it got). A camera stage's
+/// detail adds the figures its quality gate judged (RMS, the lower half's projection uncertainty,
+/// the halves' cross-validation ratio).
+std::vector<Gate> evaluateGates(const RunRecord& record);
 
 }  // namespace report
 }  // namespace autocal

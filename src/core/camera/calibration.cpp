@@ -620,6 +620,34 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
                       fmt(" (> %.0f %% of the image size)", 100 * gate.max_principal_offset_ratio));
   }
   if (!(r.intrinsics.fx > 0 && r.intrinsics.fy > 0)) reasons.push_back("focal length not positive");
+  // The whole image, from the uncertainty and the cross-validation (none for an equidistant fit:
+  // those two criteria are then not judged).
+  const ProjectionUncertainty& u = r.uncertainty;
+  if (u.valid && u.unmapped > 0) {
+    reasons.push_back("the fitted model maps no ray to " + std::to_string(u.unmapped) + " of the " +
+                      std::to_string(u.cols * u.rows) +
+                      " cells of the image grid: it extrapolates far beyond the views there; add "
+                      "views whose board corners reach those parts of the image");
+  }
+  if (u.valid && !(u.lower_half_worst_px <= gate.max_lower_half_uncertainty_px)) {
+    reasons.push_back(
+        fmt("the lower half of the image is not pinned down by the views: projection uncertainty "
+            "up to %.2f px there (limit %.2f px)",
+            u.lower_half_worst_px, gate.max_lower_half_uncertainty_px) +
+        "; the boards were seen too high in the image: add boards the camera sees low in its "
+        "image (nearer the robot, lower, or lying on the floor)");
+  }
+  if (r.halves.valid && r.halves.views_each >= gate.min_views_per_half &&
+      !(r.halves.ratio <= gate.max_halves_ratio)) {
+    reasons.push_back(
+        fmt("two calibrations from alternate halves of the views differ by %.2f px RMS, %.1f "
+            "times what their uncertainty allows (limit %.1f)",
+            r.halves.rms_px, r.halves.ratio, gate.max_halves_ratio) +
+        ": the lens model (" + distortionModelName(r.intrinsics.distortion_model) + ", terms " +
+        r.fitted_terms +
+        ") does not fit this lens, or the lens moved during the sweep (focus ring, a knock); try "
+        "another distortion_model (rational_polynomial; equidistant for a fisheye lens)");
+  }
   return reasons;
 }
 

@@ -61,6 +61,11 @@ void CameraCalibrationConfig::validate() const {
   checkConfig(quality_gate.max_view_rms_px > 0, "quality_gate.max_view_rms_px", "must be > 0");
   checkConfig(quality_gate.min_views >= calibration.min_views, "quality_gate.min_views",
               "must be >= calibration.min_views");
+  checkConfig(quality_gate.max_lower_half_uncertainty_px > 0,
+              "quality_gate.max_lower_half_uncertainty_px", "must be > 0 [px]");
+  checkConfig(quality_gate.max_halves_ratio > 0, "quality_gate.max_halves_ratio", "must be > 0");
+  checkConfig(quality_gate.min_views_per_half >= 4, "quality_gate.min_views_per_half",
+              "must be >= 4");
 }
 
 CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
@@ -131,6 +136,12 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.quality_gate.min_views = q.required<int>("min_views");
     c.quality_gate.max_focal_rel_std = q.required<double>("max_focal_rel_std");
     c.quality_gate.max_principal_offset_ratio = q.required<double>("max_principal_offset_ratio");
+    c.quality_gate.max_lower_half_uncertainty_px = q.optional<double>(
+        "max_lower_half_uncertainty_px", c.quality_gate.max_lower_half_uncertainty_px);
+    c.quality_gate.max_halves_ratio =
+        q.optional<double>("max_halves_ratio", c.quality_gate.max_halves_ratio);
+    c.quality_gate.min_views_per_half =
+        q.optional<int>("min_views_per_half", c.quality_gate.min_views_per_half);
     q.finish();
   }
   root.finish();

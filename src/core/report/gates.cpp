@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <tuple>
 
 #include "autocal/errors.h"
 #include "autocal/io/format.h"
@@ -64,26 +65,23 @@ double cornerCoverage(const ViewsAudit& audit, int cols, int rows) {
   return static_cast<double>(cells.size()) / (cols * rows);
 }
 
-std::vector<Gate> evaluateGates(const RunRecord& record, const ViewsAudit& audit,
-                                const ReportOptions& options) {
+std::vector<Gate> evaluateGates(const RunRecord& record) {
   std::vector<Gate> gates;
   for (const StageRecord& s : record.stages) {
-    gates.push_back({s.stage + " stage", s.state == StageState::kDone,
-                     s.state == StageState::kFailed ? s.failure
-                     : s.state == StageState::kDone ? "done"
-                                                    : s.stateText()});
-  }
-  if (const StageRecord* camera = record.stage("camera")) {
-    if (camera->state == StageState::kDone) {
-      const double rms = camera->figure("rms_px");
-      gates.push_back({"camera RMS reprojection error", rms <= options.max_camera_rms_px,
-                       formatNumber(rms, 3) + " px (at most " +
-                           formatNumber(options.max_camera_rms_px, 3) + ")"});
-      const double coverage = cornerCoverage(audit);
-      gates.push_back({"camera corner coverage", coverage >= options.min_corner_coverage,
-                       formatNumber(100 * coverage, 3) + " % of the image (at least " +
-                           formatNumber(100 * options.min_corner_coverage, 3) + " %)"});
+    std::string detail = s.state == StageState::kFailed ? s.failure
+                         : s.state == StageState::kDone ? "done"
+                                                        : s.stateText();
+    if (s.stage == "camera" && s.state == StageState::kDone) {
+      // What the stage's gate judged (camera_calibration.yaml quality_gate), as it reported it.
+      for (const auto& [name, label, unit] :
+           {std::tuple<const char*, const char*, const char*>{"rms_px", "RMS ", " px"},
+            {"uncertainty_lower_half_worst_px", "lower-half uncertainty ", " px"},
+            {"halves_ratio", "halves ratio ", ""}}) {
+        const double v = s.figure(name);
+        if (std::isfinite(v)) detail += std::string(", ") + label + formatNumber(v, 3) + unit;
+      }
     }
+    gates.push_back({s.stage + " stage", s.state == StageState::kDone, detail});
   }
   return gates;
 }

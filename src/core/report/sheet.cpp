@@ -234,7 +234,7 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   const bool replay = !record.replay_of.empty();
   text(sheet, "autocal self-calibration: " + record.vehicle + (replay ? " (REPLAY)" : ""), {20, 36},
        0.9, kBlack, 2);
-  const std::vector<Gate> gates = evaluateGates(record, audit, options);
+  const std::vector<Gate> gates = evaluateGates(record);
   const auto passed =
       std::count_if(gates.begin(), gates.end(), [](const Gate& g) { return g.passed; });
   text(sheet, ok ? "SUCCESS" : "FAILED", {620, 36}, 0.9, ok ? kGreen : kRed, 2);

@@ -25,10 +25,6 @@ void RunReportNodeOptions::validate() const {
   for (const std::string& s : stages)
     ros_layer::checkParam(s == "camera" || s == "wheels" || s == "odometry", "stages",
                           "each must be camera, wheels or odometry (got '" + s + "')");
-  ros_layer::checkParam(std::isfinite(report.max_camera_rms_px) && report.max_camera_rms_px > 0,
-                        "max_camera_rms_px", "must be > 0 [px]");
-  ros_layer::checkParam(report.min_corner_coverage >= 0 && report.min_corner_coverage <= 1,
-                        "min_corner_coverage", "must be within [0, 1]");
   ros_layer::checkParam(std::isfinite(stage_start_timeout_s) && stage_start_timeout_s >= 0,
                         "stage_start_timeout_s", "must be >= 0 [s]");
   ros_layer::checkParam(std::isfinite(ping_period_s) && ping_period_s > 0, "ping_period_s",
@@ -51,8 +47,6 @@ RunReportNode::RunReportNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   p.get("report_dir", options_.report_dir);
   if (options_.report_dir.empty())
     options_.report_dir = (fs::path(options_.calibration_root) / "report" / options_.veh).string();
-  p.get("max_camera_rms_px", options_.report.max_camera_rms_px);
-  p.get("min_corner_coverage", options_.report.min_corner_coverage);
   p.get("stage_start_timeout_s", options_.stage_start_timeout_s);
   p.get("ping_period_s", options_.ping_period_s);
   p.get("resume", options_.resume);

@@ -11,7 +11,8 @@ target_sources(autocal_camera PRIVATE
   src/core/camera/min_duty_probe.cpp
   src/core/camera/sweep_run.cpp
   src/core/camera/sweep_replay.cpp
-  src/core/camera/debug_image.cpp)
+  src/core/camera/debug_image.cpp
+  src/core/camera/focus_meter.cpp)
 
 # The offline tool: image folder or bag in, camera_info YAML out.
 add_executable(calibrate_camera src/nodes/calibrate_camera_main.cpp)
@@ -68,6 +69,21 @@ add_executable(camera_calibration_node
   src/nodes/camera_calibration/camera_calibration_node_main.cpp)
 target_link_libraries(camera_calibration_node autocal_ros)
 autocal_ros_target(camera_calibration_node)
+
+# The focus assistant (paper 000 §6): the sharpness of the board in view while a person turns the
+# lens ring.
+add_executable(focus_node src/nodes/focus/focus_node.cpp src/nodes/focus/focus_node_main.cpp)
+target_link_libraries(focus_node autocal_ros)
+autocal_ros_target(focus_node)
+if(CATKIN_ENABLE_TESTING)
+  # The assistant in the simulator, in real time: the test turns the lens's ring through its peak.
+  add_executable(test_focus_node EXCLUDE_FROM_ALL test/camera/test_focus_node.cpp)
+  target_link_libraries(test_focus_node autocal_sim_core autocal_ros GTest::gtest)
+  target_include_directories(test_focus_node PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  autocal_ros_target(test_focus_node)
+  add_dependencies(tests test_focus_node)
+  add_rostest(test/camera/focus.test DEPENDENCIES test_focus_node focus_node sim_node)
+endif()
 
 if(CATKIN_ENABLE_TESTING)
   # The node end to end in the simulator (camera_node.test; arguments choose robot, world, outcome).

@@ -171,6 +171,9 @@ RobotConfig readRobot(YamlMap& m) {
   if (c.jpeg_quality < 1 || c.jpeg_quality > 100) cam.fail("jpeg_quality", "must be 1..100");
   c.vignetting = inRange(cam, "vignetting", c.vignetting, 0.0, 0.9);
   c.brightness_sigma = inRange(cam, "brightness_sigma", c.brightness_sigma, 0.0, 0.3);
+  c.focus_ring_sharp_turns =
+      inRange(cam, "focus_ring_sharp_turns", c.focus_ring_sharp_turns, -5.0, 5.0);
+  c.defocus_px_per_turn = inRange(cam, "defocus_px_per_turn", c.defocus_px_per_turn, 0.0, 50.0);
   YamlMap nominal = cam.map("nominal");
   c.nominal = readIntrinsics(nominal, false, c.truth.width, c.truth.height);
   nominal.finish();

@@ -454,7 +454,13 @@ const cv::Mat& Renderer::renderNoiseless(const std::vector<Pose2>& poses) {
 
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) {
   if (poses.empty()) throw InputError("renderer: no pose to render");
-  const cv::Mat& acc = renderNoiseless(poses);
+  const cv::Mat* noiseless = &renderNoiseless(poses);
+  if (defocus_px_ > 0) {
+    // The lens out of focus blurs the light before the sensor adds its noise.
+    cv::GaussianBlur(*noiseless, defocused_, cv::Size(), defocus_px_);
+    noiseless = &defocused_;
+  }
+  const cv::Mat& acc = *noiseless;
   // The frame's brightness (auto-exposure and light that vary), drawn only when it varies.
   double gain = 1.0;
   if (config_.brightness_sigma > 0) {

@@ -13,6 +13,7 @@
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/chessboard.h"
+#include "autocal/camera/focus_meter.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/sim/camera_model.h"
@@ -593,6 +594,12 @@ std::vector<cv::Point2f> renderBoard(cv::Mat& frame, const std::vector<cv::Point
 
 cv::Mat background() { return cv::Mat(kImage, CV_8U, cv::Scalar(128)); }
 
+cv::Mat frameBlurred(const cv::Mat& frame, double sigma) {
+  cv::Mat out;
+  cv::GaussianBlur(frame, out, cv::Size(0, 0), sigma);
+  return out;
+}
+
 double maxError(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
   double m = 0;
   for (size_t i = 0; i < a.size(); ++i) m = std::max(m, cv::norm(a[i] - b[i]));
@@ -661,6 +668,51 @@ TEST(CameraImages, BlurredViewIsRefused) {
   EXPECT_FALSE(r.decisions[0].kept);
   EXPECT_NE(r.decisions[0].reason.find("blurred"), std::string::npos) << r.decisions[0].reason;
   EXPECT_TRUE(collector.addFrame(sharp, "sharp").any_kept());
+}
+
+// The focus assistant's measure (paper 000 §6): a board blurred more reads less sharp, the best so
+// far is the sharpest frame's, a frame near it counts as at the best, and a frame without a board
+// has no sharpness and keeps the best.
+TEST(FocusMeter, FollowsTheBlurAndKeepsTheBest) {
+  cv::Mat sharp = background();
+  renderBoard(sharp, {{150, 120}, {470, 140}, {480, 360}, {140, 340}});
+  FocusMeterOptions o;
+  FocusMeter meter(o);
+  std::vector<double> sharpness;
+  double t = 0;
+  // The ring turned from soft through sharp to soft again.
+  const std::vector<double> sigmas{2.0, 1.2, 0.6, 0.0, 0.6, 1.2, 2.0};
+  for (size_t k = 0; k < sigmas.size(); ++k) {
+    const FocusReading r =
+        meter.add(t += 0.1, sigmas[k] > 0 ? frameBlurred(sharp, sigmas[k]) : sharp);
+    ASSERT_TRUE(r.board) << "sigma " << sigmas[k];
+    sharpness.push_back(r.sharpness);
+    // Each frame up to the sharp one is a new best; past it, the softer ones are not.
+    if (k <= 3) {
+      EXPECT_TRUE(r.at_best) << k;
+    } else if (k >= 5) {
+      EXPECT_FALSE(r.at_best) << k;
+    }
+  }
+  EXPECT_LT(sharpness[0], sharpness[1]);
+  EXPECT_LT(sharpness[1], sharpness[2]);
+  EXPECT_LT(sharpness[2], sharpness[3]);
+  EXPECT_GT(sharpness[3], 0.6);
+  EXPECT_LT(sharpness[0], 0.6 * sharpness[3]);
+  EXPECT_NEAR(sharpness[2], sharpness[4], 0.02);
+  EXPECT_DOUBLE_EQ(meter.last().best, sharpness[3]);
+  EXPECT_DOUBLE_EQ(meter.last().best_stamp_s, 0.4);
+  EXPECT_NE(meter.last().describe().find("turn back towards the best"), std::string::npos);
+  const FocusReading none = meter.add(1.0, background());
+  EXPECT_FALSE(none.board);
+  EXPECT_EQ(none.sharpness, 0.0);
+  EXPECT_DOUBLE_EQ(none.best, sharpness[3]);
+  EXPECT_NE(none.describe().find("no board in view"), std::string::npos);
+  const cv::Mat shown = drawFocus(sharp, meter.add(1.1, sharp));
+  EXPECT_EQ(shown.type(), CV_8UC3);
+  EXPECT_EQ(shown.size(), sharp.size());
+  meter.reset();
+  EXPECT_DOUBLE_EQ(meter.add(1.2, frameBlurred(sharp, 2.0)).best, sharpness[0]);
 }
 
 TEST(CameraImages, FramesOneAtATimeKeepOnlyNewViewsAndReportCoverage) {

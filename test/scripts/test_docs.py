@@ -50,6 +50,7 @@ NODES = {
                              "src/ros/autocal_ros/tag_params.cpp"],
     "run_report_node": ["src/nodes/run_report/run_report_node.cpp"],
     "camera_view_node": ["src/nodes/run_report/camera_view_node.cpp"],
+    "focus_node": ["src/nodes/focus/focus_node.cpp"],
     "fleet_report_node": ["src/nodes/run_report/fleet_report_main.cpp"],
     "validate_straight": ["src/nodes/validate_straight/validate_straight_node.cpp"],
     "sim_node": ["sim/src/node/sim_node.cpp"],

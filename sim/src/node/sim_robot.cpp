@@ -192,7 +192,17 @@ bool SimRobot::beginFrame(double capture_s) {
   info.header.frame_id = camera_frame_;
   frame_info_ = info;
   frame_jpeg_.header = frame_image_.header = info.header;
-  if (frame_compressed_ || frame_raw_) return true;
+  if (frame_compressed_ || frame_raw_) {
+    // The lens's focus ring, turned by a person at run time (a parameter in the robot's
+    // namespace; unset: where the lens is sharp).
+    double ring = robot_.camera.focus_ring_sharp_turns;
+    nh_.getParamCached("sim_lens/focus_ring_turns", ring);
+    if (std::isfinite(ring)) {
+      renderer_->setDefocusPx(robot_.camera.defocus_px_per_turn *
+                              std::abs(ring - robot_.camera.focus_ring_sharp_turns));
+    }
+    return true;
+  }
   // Nobody looks: no rendering, camera_info alone.
   camera_link_.push(capture_s, [this, info] { camera_info_pub_.publish(info); });
   return false;

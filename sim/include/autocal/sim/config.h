@@ -38,6 +38,11 @@ struct CameraConfig {
   double vignetting = 0.0;
   /// Each frame's brightness is scaled by 1 + N(0, brightness_sigma) (auto-exposure, light).
   double brightness_sigma = 0.0;
+  /// The focus ring: the position at which the lens is sharp [turns], and the defocus blur (a
+  /// Gaussian's sigma) per turn away from it [px/turn]. The ring stands at the sharp position
+  /// unless sim_node is told otherwise at run time (<veh>/sim_lens/focus_ring_turns).
+  double focus_ring_sharp_turns = 0.0;
+  double defocus_px_per_turn = 4.0;
 };
 
 struct RangeSensorConfig {

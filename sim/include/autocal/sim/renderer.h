@@ -84,6 +84,10 @@ class Renderer {
   /// their average blurs the edges far more than a pixel, and it keeps blurred frames cheap. `rng` draws the noise offsets, so a seeded rng gives the same image.
   cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng);
 
+  /// The lens's defocus from now on: a Gaussian blur of this sigma [px] before the noise (0: sharp).
+  void setDefocusPx(double sigma_px) { defocus_px_ = sigma_px > 0 ? sigma_px : 0.0; }
+  double defocusPx() const { return defocus_px_; }
+
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
   cv::Mat renderExact(const Pose2& pose);
 
@@ -142,6 +146,8 @@ class Renderer {
   cv::Mat vignette_;  ///< each pixel's brightness factor (CameraConfig::vignetting); empty: none
   cv::Mat accumulator_, noisy_row_, shaded_row_;  ///< per-frame buffers, kept between frames
   uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
+  double defocus_px_ = 0;
+  cv::Mat defocused_;  // the defocused noiseless image (a buffer kept between frames)
   /// The same camera at half resolution, for blurred frames of many poses (null: not used).
   std::unique_ptr<Renderer> half_;
   cv::Mat upscaled_;

@@ -73,6 +73,13 @@ T YamlMap::convert(const std::string& key, const YAML::Node& value) const {
         out.push_back(convert<double>(key + "[" + std::to_string(i) + "]", value[i]));
       }
       return out;
+    } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+      if (!value.IsSequence()) throw YAML::Exception(value.Mark(), "");
+      std::vector<std::string> out;
+      for (size_t i = 0; i < value.size(); ++i) {
+        out.push_back(convert<std::string>(key + "[" + std::to_string(i) + "]", value[i]));
+      }
+      return out;
     } else if constexpr (std::is_same_v<T, std::vector<std::vector<double>>>) {
       if (!value.IsSequence()) throw YAML::Exception(value.Mark(), "");
       std::vector<std::vector<double>> out;
@@ -156,6 +163,7 @@ template int YamlMap::required<int>(const std::string&);
 template bool YamlMap::required<bool>(const std::string&);
 template std::string YamlMap::required<std::string>(const std::string&);
 template std::vector<double> YamlMap::required<std::vector<double>>(const std::string&);
+template std::vector<std::string> YamlMap::required<std::vector<std::string>>(const std::string&);
 template double YamlMap::optional<double>(const std::string&, const double&);
 template int YamlMap::optional<int>(const std::string&, const int&);
 template bool YamlMap::optional<bool>(const std::string&, const bool&);

@@ -198,7 +198,11 @@ int run(const Args& args) {
   if (!args.board.empty()) config.board.inner_corners = parseBoardSize(args.board);
   if (args.square_m > 0) config.board.square_size_m = args.square_m;
   const BoardSpec& board = config.board;
-  if (!args.model.empty()) config.calibration.model = parseDistortionModel(args.model);
+  if (!args.model.empty()) {
+    // A model given is pinned: no other is tried.
+    config.calibration.model = parseDistortionModel(args.model);
+    config.calibration.fallback_models.clear();
+  }
   if (args.min_novelty >= 0) config.selection.min_novelty = args.min_novelty;
   if (args.novel_only) config.selection.keep_sharp_views = false;
   config.validate();
@@ -256,8 +260,9 @@ int run(const Args& args) {
   std::vector<std::vector<cv::Point2f>> corners;
   for (const auto& v : views) corners.push_back(v.corners);
   const auto t1 = std::chrono::steady_clock::now();
-  const CalibrationResult result =
-      calibrate(corners, collector.imageSize(), board, config.calibration);
+  const ModelChoice choice = calibrateChoosingModel(corners, collector.imageSize(), board,
+                                                    config.calibration, config.quality_gate);
+  const CalibrationResult& result = choice.result;
   const auto t2 = std::chrono::steady_clock::now();
   const double seconds = std::chrono::duration<double>(t2 - t0).count();
 
@@ -323,13 +328,14 @@ int run(const Args& args) {
         ours.mean_rms_px, ours.fx_spread_px, plain.mean_rms_px, plain.fx_spread_px, corners.size());
   }
 
-  const std::vector<std::string> failures = checkQuality(result, config.quality_gate);
-  if (!failures.empty()) {
-    std::string msg =
-        "the result fails the quality gate, nothing written (" + args.out + " untouched):";
-    for (const auto& f : failures) msg += "\n  " + f;
-    throw CalibrationError(msg);
+  if (!choice.passed) {
+    throw CalibrationError(std::string("the result fails the quality gate") +
+                           (choice.refused.size() > 1 ? " with every lens model tried" : "") +
+                           ", nothing written (" + args.out + " untouched):\n  " +
+                           choice.refusals("\n  "));
   }
+  if (!result.refused_models.empty())
+    std::printf("refused first: %s\n", result.refused_models.c_str());
   writeCameraCalibration(args.out, ros_layer::cameraInfoYaml(in, args.camera_name), board, result,
                          views, kept_frames);
   const std::string views_dir = viewsDirFor(args.out);

@@ -446,6 +446,42 @@ TEST(CameraUncertainty, ExactRaysForAWideLens) {
   }
 }
 
+// The lens model the gate passes is the one written: a plumb_bob lens keeps plumb_bob with nothing
+// refused; views that leave the lower half unknown are refused with every model tried, each with
+// its reasons, and with no fallback the model is pinned. (Which model a fisheye lens gets is
+// checked on the simulator's sweep: SweepRunInSim.FisheyeLensGetsTheModelThatFits.)
+TEST(ModelChoice, TheFirstModelTheGatePassesIsWritten) {
+  CalibrationOptions o = options();
+  o.fallback_models = {DistortionModel::kRationalPolynomial};
+  const Truth t;
+  const ModelChoice kept = calibrateChoosingModel(observe(t, boardPoses(t, 20, 60, 420, 3), 0.2, 5),
+                                                  kImage, testBoard(), o, QualityGateOptions());
+  ASSERT_TRUE(kept.passed) << kept.refusals("; ");
+  EXPECT_TRUE(kept.refused.empty());
+  EXPECT_EQ(kept.result.intrinsics.distortion_model, DistortionModel::kPlumbBob);
+  EXPECT_TRUE(kept.result.refused_models.empty());
+
+  const std::vector<std::vector<cv::Point2f>> upper =
+      observe(t, boardPoses(t, 15, 60, 130, 7, 0.9), 0.2, 1);
+  const ModelChoice none =
+      calibrateChoosingModel(upper, kImage, testBoard(), o, QualityGateOptions());
+  EXPECT_FALSE(none.passed);
+  ASSERT_EQ(none.refused.size(), 2u);
+  EXPECT_EQ(none.refused[0].model, DistortionModel::kPlumbBob);
+  EXPECT_EQ(none.refused[1].model, DistortionModel::kRationalPolynomial);
+  const std::string text = none.refusals("; ");
+  EXPECT_EQ(text.find("plumb_bob: "), 0u) << text;
+  EXPECT_NE(text.find("; rational_polynomial: "), std::string::npos) << text;
+  EXPECT_EQ(none.result.intrinsics.distortion_model, DistortionModel::kPlumbBob);
+
+  o.fallback_models.clear();
+  const ModelChoice pinned =
+      calibrateChoosingModel(upper, kImage, testBoard(), o, QualityGateOptions());
+  EXPECT_FALSE(pinned.passed);
+  ASSERT_EQ(pinned.refused.size(), 1u);
+  EXPECT_EQ(pinned.refusals("; ").find("plumb_bob"), std::string::npos);  // one model: no name
+}
+
 // The fisheye model's fit gives no uncertainty rather than a dishonest one (over synthetic refits
 // its true errors were 30 times the propagated uncertainty).
 TEST(CameraUncertainty, FisheyeFitGivesNone) {

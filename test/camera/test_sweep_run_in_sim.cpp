@@ -13,6 +13,7 @@
 #include "autocal/camera/sweep_run.h"
 #include "autocal/errors.h"
 #include "autocal/sim/config.h"
+#include "autocal/sim/projection_difference.h"
 #include "support/sweep_in_sim.h"
 
 namespace {
@@ -134,6 +135,42 @@ TEST(SweepRunInSim, DefaultRobotAndWorld) {
   std::cout << "progress: " << r.progress.size() << " values over " << t1 - t0
             << " s; worst distance from the time's fraction " << worst << std::endl;
   EXPECT_LE(worst, 0.3);
+}
+
+// A fisheye lens (equidistant, as a Duckiebot's wide-angle lens is): the sweep's plumb_bob fit is
+// refused over the whole image, and so is rational_polynomial (each maps no ray to cells at the
+// image's corners); equidistant, the next model the config lists, is written, and it is right over
+// the whole image against the simulator's true lens. Pinned to plumb_bob, the same views are
+// refused: no file that is pixels off is written.
+TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "fleet/robot_fisheye.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  camera::CameraCalibrationConfig config = cameraConfigFor(world, robot);
+  config.calibration.fallback_models = {DistortionModel::kRationalPolynomial,
+                                        DistortionModel::kEquidistant};
+  camera::SweepRun run(runOptionsFor(robot), config);
+  const test::SweepInSim r = test::runSweepInSim(robot, world, run, test::SweepInSimOptions());
+  ASSERT_TRUE(r.swept) << r.failure;
+  ASSERT_TRUE(r.calibration_failure.empty()) << r.calibration_failure;
+  const sim::ProjectionDifference d =
+      sim::projectionDifference(robot.camera.truth, r.result.intrinsics);
+  std::cout << distortionModelName(r.result.intrinsics.distortion_model) << " written, fx "
+            << r.result.intrinsics.fx << " (" << robot.camera.truth.fx
+            << "); refused first: " << r.result.refused_models << "\nprojection difference RMS "
+            << d.rms_px << " px, worst " << d.worst_px << " px, lower half " << d.lower_rms_px
+            << " px\n";
+  EXPECT_EQ(r.result.intrinsics.distortion_model, DistortionModel::kEquidistant);
+  EXPECT_EQ(r.result.refused_models.find("plumb_bob: "), 0u);
+  EXPECT_NE(r.result.refused_models.find("rational_polynomial: "), std::string::npos);
+  EXPECT_EQ(d.unmapped, 0);
+  EXPECT_LE(d.rms_px, 0.5);
+  EXPECT_LE(d.worst_px, 1.5);
+
+  camera::CalibrationOptions pinned = config.calibration;
+  pinned.fallback_models.clear();
+  const camera::ModelChoice c =
+      camera::calibrateChoosingModel(r.sharp, r.image_size, r.board, pinned, config.quality_gate);
+  EXPECT_FALSE(c.passed);
 }
 
 /// The replay fed what a recording of the live run holds, in the order it holds it.

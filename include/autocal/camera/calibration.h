@@ -24,6 +24,9 @@ using autocal::parseDistortionModel;
 
 struct CalibrationOptions {
   DistortionModel model = DistortionModel::kPlumbBob;
+  /// Lens models tried in this order when the result with `model` fails its quality gate
+  /// (calibrateChoosingModel): the first one the gate passes is written. Empty: `model` is pinned.
+  std::vector<DistortionModel> fallback_models{DistortionModel::kRationalPolynomial};
   /// Fewer views than this are refused.
   int min_views = 6;
   /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.
@@ -90,6 +93,9 @@ struct CalibrationResult {
   ProjectionUncertainty uncertainty;
   /// The fits of the two halves of the used views compared (not valid under 8 views).
   HalvesCrossValidation halves;
+  /// The lens models the gate refused before this one (calibrateChoosingModel), each with its
+  /// reasons: "plumb_bob: ..."; empty when the first model passed.
+  std::string refused_models;
 };
 
 /// Calibrates from views (corners in pattern order). Throws InputError for unusable corners (NaN,
@@ -141,6 +147,28 @@ struct QualityGateOptions {
 /// Reasons the result may not be written; empty when it passes.
 std::vector<std::string> checkQuality(const CalibrationResult& result,
                                       const QualityGateOptions& gate);
+
+/// The lens model that fits: options.model, then each of options.fallback_models in order, fitted
+/// to the same views and judged by the same gate (over the whole image too: the uncertainty, the
+/// unmapped cells, the halves' cross-validation); the first one the gate passes is chosen.
+struct ModelChoice {
+  struct Refusal {
+    DistortionModel model = DistortionModel::kPlumbBob;
+    std::vector<std::string> reasons;  ///< the gate's, or why the fit failed
+  };
+  bool passed = false;
+  CalibrationResult result;      ///< the chosen model's (when passed)
+  std::vector<Refusal> refused;  ///< the models refused, in the order tried
+  /// The refusals as text: with one model its reasons joined by `separator`; with several, each
+  /// "<model>: <reasons>" joined by `separator`.
+  std::string refusals(const std::string& separator) const;
+};
+/// Throws InputError for unusable corners, CalibrationError when the first model's fit fails (a
+/// fallback's failed fit is a refusal).
+ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,
+                                   const cv::Size& image_size, const BoardSpec& board,
+                                   const CalibrationOptions& options,
+                                   const QualityGateOptions& gate);
 
 }  // namespace camera
 }  // namespace autocal

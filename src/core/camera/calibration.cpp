@@ -651,5 +651,52 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
   return reasons;
 }
 
+std::string ModelChoice::refusals(const std::string& separator) const {
+  std::string out;
+  for (const Refusal& r : refused) {
+    if (!out.empty()) out += separator;
+    if (refused.size() > 1) out += distortionModelName(r.model) + ": ";
+    for (size_t k = 0; k < r.reasons.size(); ++k) out += (k ? separator : "") + r.reasons[k];
+  }
+  return out;
+}
+
+ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,
+                                   const cv::Size& image_size, const BoardSpec& board,
+                                   const CalibrationOptions& options,
+                                   const QualityGateOptions& gate) {
+  std::vector<DistortionModel> models{options.model};
+  for (const DistortionModel m : options.fallback_models)
+    if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(m);
+  ModelChoice choice;
+  for (size_t k = 0; k < models.size(); ++k) {
+    CalibrationOptions o = options;
+    o.model = models[k];
+    CalibrationResult r;
+    try {
+      r = calibrate(views, image_size, board, o);
+    } catch (const CalibrationError& e) {
+      if (k == 0) throw;  // the views themselves cannot determine a model
+      choice.refused.push_back({models[k], {std::string("the fit failed: ") + e.what()}});
+      continue;
+    }
+    std::vector<std::string> reasons = checkQuality(r, gate);
+    if (reasons.empty()) {
+      choice.passed = true;
+      choice.result = std::move(r);
+      for (const ModelChoice::Refusal& f : choice.refused) {
+        choice.result.refused_models += (choice.result.refused_models.empty() ? "" : " | ") +
+                                        distortionModelName(f.model) + ": ";
+        for (size_t j = 0; j < f.reasons.size(); ++j)
+          choice.result.refused_models += (j ? "; " : "") + f.reasons[j];
+      }
+      return choice;
+    }
+    choice.refused.push_back({models[k], std::move(reasons)});
+    if (k == 0) choice.result = std::move(r);  // for a caller that reports the refused fit
+  }
+  return choice;
+}
+
 }  // namespace camera
 }  // namespace autocal

@@ -34,7 +34,8 @@ StageResult writeCameraStageFile(const StageOutput& output, const CameraInfoForm
           formatNumber(in.cx, 6) + " cy " + formatNumber(in.cy, 6) + " k1 " +
           formatNumber(in.distortion_coefficients[0], 4) + ", RMS " +
           formatNumber(result.rms_px, 3) + " px over " + std::to_string(result.used_views.size()) +
-          " views (" + result.fitted_terms + ")";
+          " views (" + distortionModelName(in.distortion_model) + ", " + result.fitted_terms + ")";
+  if (!result.refused_models.empty()) r.log += "; refused first: " + result.refused_models;
   return r;
 }
 
@@ -98,6 +99,12 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
   y << "distortion_model: " << distortionModelName(result.intrinsics.distortion_model) << "\n";
   y << "rms_px: " << formatNumber(result.rms_px) << "\nfitted_terms: \"" << result.fitted_terms
     << "\"\noutlier_corners_dropped: " << result.dropped_corners << "\n";
+  if (!result.refused_models.empty()) {
+    std::string quoted = result.refused_models;
+    for (size_t p = 0; (p = quoted.find('"', p)) != std::string::npos; p += 2)
+      quoted.insert(p, "\\");
+    y << "refused_models: \"" << quoted << "\"\n";
+  }
   const ProjectionUncertainty& pu = result.uncertainty;
   if (pu.valid) {
     y << "projection_uncertainty:\n  grid: [" << pu.cols << ", " << pu.rows
@@ -108,7 +115,7 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
       << "\n  sigma_px: [";
     for (size_t i = 0; i < pu.sigma_px.size(); ++i)
       y << (i ? ", " : "")
-        << (std::isfinite(pu.sigma_px[i]) ? formatNumber(pu.sigma_px[i], 4) : ".nan");
+        << (std::isfinite(pu.sigma_px[i]) ? formatNumber(pu.sigma_px[i], 4) : "-1");
     y << "]\n";
   }
   const HalvesCrossValidation& h = result.halves;

@@ -106,6 +106,11 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
   {
     YamlMap k = root.map("calibration");
     c.calibration.model = parseDistortionModel(k.required<std::string>("distortion_model"));
+    if (k.has("fallback_models")) {
+      c.calibration.fallback_models.clear();
+      for (const std::string& m : k.required<std::vector<std::string>>("fallback_models"))
+        c.calibration.fallback_models.push_back(parseDistortionModel(m));
+    }
     c.calibration.min_views = k.required<int>("min_views");
     c.calibration.min_param_spread = k.required<double>("min_param_spread");
     c.calibration.select_distortion_terms = k.required<bool>("select_distortion_terms");

@@ -292,16 +292,14 @@ CalibrationResult calibrateSweepViews(const ViewCollector& collector,
   if (corners.empty())
     throw CalibrationError("no usable view of a " + camera.board.describe() + " board in " +
                            std::to_string(collector.frames()) + " frames");
-  CalibrationResult result =
-      camera::calibrate(corners, collector.imageSize(), camera.board, camera.calibration);
-  const std::vector<std::string> failures = checkQuality(result, camera.quality_gate);
-  if (!failures.empty()) {
-    std::string msg = "the result fails the quality gate, nothing written:";
-    for (const auto& f : failures) msg += " " + f + ";";
-    msg.pop_back();
-    throw CalibrationError(msg);
+  ModelChoice choice = calibrateChoosingModel(corners, collector.imageSize(), camera.board,
+                                              camera.calibration, camera.quality_gate);
+  if (!choice.passed) {
+    throw CalibrationError(std::string("the result fails the quality gate") +
+                           (choice.refused.size() > 1 ? " with every lens model tried" : "") +
+                           ", nothing written: " + choice.refusals("; "));
   }
-  return result;
+  return std::move(choice.result);
 }
 
 CalibrationResult SweepRun::calibrate() const {

@@ -134,9 +134,9 @@ void drawUncertainty(cv::Mat& sheet, cv::Rect area, const ViewsAudit& audit) {
       const double v = audit.uncertainty_px[static_cast<size_t>(r * cols + c)];
       const double t = std::min(1.0, std::max(0.0, v));  // 0 .. 1 px
       // BGR: green (0, 200, 0) at 0, yellow (0, 220, 240) at 0.5, red (0, 0, 230) at 1.
-      // Grey where the model maps no ray.
+      // Grey where the model maps no ray (-1 in views.yaml).
       const cv::Scalar colour =
-          std::isfinite(v)
+          std::isfinite(v) && v >= 0
               ? cv::Scalar(0, t < 0.5 ? 200 + 40 * t : 440 * (1 - t), t < 0.5 ? 480 * t : 240)
               : cv::Scalar(160, 160, 160);
       const cv::Rect cell(frame.x + frame.width * c / cols, frame.y + frame.height * r / rows,

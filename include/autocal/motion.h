@@ -169,7 +169,6 @@ class EncoderDrive {
   bool settled(double now_s) const;
 
   const EncoderTracker& encoders() const { return encoders_; }
-  const EncoderDriveOptions& options() const { return options_; }
 
  private:
   EncoderDriveOptions options_;

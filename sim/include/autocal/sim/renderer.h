@@ -86,7 +86,6 @@ class Renderer {
 
   /// The lens's defocus from now on: a Gaussian blur of this sigma [px] before the noise (0: sharp).
   void setDefocusPx(double sigma_px) { defocus_px_ = sigma_px > 0 ? sigma_px : 0.0; }
-  double defocusPx() const { return defocus_px_; }
 
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
   cv::Mat renderExact(const Pose2& pose);

@@ -1,11 +1,12 @@
 #!/usr/bin/python3
 """`make robustness`: the whole calibration in robot mode over a matrix of simulated robots.
 
-Draws N robots (seeded) from sim/config/robot_real.yaml: intrinsics within the real fleet's ranges
-(fx 317-361 px, cx 300-336, cy 210-256, k1 -0.32..-0.25, k2 0.04..0.09, p1 and p2 within
-+-0.005), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
+Draws N robots (seeded) from sim/config/robot.yaml (the realistic default robot): a wide-angle
+(equidistant) lens whose plumb_bob fit lands within the real fleet's ranges (fx 309-352 px, which
+Duckietown's plumb_bob calibrations see as 317-361; cx 300-336, cy 210-256; k1 -0.01..0.05, k2
+-0.03..0.01), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
 backward gains, a gain drift, gearbox backlash and wheel slip within their documented ranges, and the transport of
-robot_real.yaml. Each robot runs `rosrun autocal calibrate_sim` (camera and wheel stages; with
+robot.yaml. Each robot runs `rosrun autocal calibrate_sim` (camera and wheel stages; with
 --odometry also the UAH stage) at each real-time factor given (1: a robot's own computer; 3: one
 three times slower), on its own master. From the simulator's truth (compare_camera,
 compare_wheels) it reports per run the result and reason, fx/fy error, the whole-image
@@ -32,18 +33,20 @@ PKG = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 
 
 def draw_robot(base, rng):
-    """A robot of the real fleet's kind: base (robot_real.yaml) with drawn values."""
+    """A robot of the real fleet's kind: base (robot.yaml) with drawn values."""
     r = yaml.safe_load(yaml.safe_dump(base))
     cam = r["camera"]
-    cam["fx"] = round(rng.uniform(317, 361), 2)
+    # A wide-angle lens, rendered as the equidistant (fisheye) model a Duckiebot's is. Fitted as
+    # plumb_bob, as Duckietown's calibrations are, an equidistant fx f gives about 1.026 f
+    # (robot.yaml's lens: 300 -> 307.7): the fleet's plumb_bob fx 317-361 are equidistant fx
+    # 309-352. The principal point is within the fleet's ranges; k1 and k2 around robot.yaml's.
+    cam["fx"] = round(rng.uniform(309, 352), 2)
     cam["fy"] = round(cam["fx"] * rng.uniform(0.995, 1.015), 2)
     cam["cx"] = round(rng.uniform(300, 336), 2)
     cam["cy"] = round(rng.uniform(210, 256), 2)
-    cam["distortion_model"] = "plumb_bob"
-    cam["distortion_coefficients"] = [round(rng.uniform(-0.32, -0.25), 4),
-                                      round(rng.uniform(0.04, 0.09), 4),
-                                      round(rng.uniform(-0.005, 0.005), 5),
-                                      round(rng.uniform(-0.005, 0.005), 5), 0.0]
+    cam["distortion_model"] = "equidistant"
+    cam["distortion_coefficients"] = [round(rng.uniform(-0.01, 0.05), 4),
+                                      round(rng.uniform(-0.03, 0.01), 4), 0.0, 0.0]
     # A trim t makes right/left = k = (1 + t) / (1 - t) at gain 1; the wheels' radii differ a
     # little, the motors' gains make up the rest.
     trim = rng.uniform(-0.09, 0.08)
@@ -135,7 +138,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(PKG, "build", "robustness"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    with open(os.path.join(PKG, "sim", "config", "robot_real.yaml")) as f:
+    with open(os.path.join(PKG, "sim", "config", "robot.yaml")) as f:
         base = yaml.safe_load(f)
     rows = []
     for i in range(1, a.robots + 1):
@@ -156,7 +159,7 @@ def main():
                                                                    if k.endswith(("pct", "px", "err", "cm"))}),
                   file=sys.stderr, flush=True)
     print("## Robustness: the whole calibration in robot mode\n")
-    print("%d robots drawn from `sim/config/robot_real.yaml` with seed %d (`/usr/bin/python3 "
+    print("%d robots drawn from `sim/config/robot.yaml` with seed %d (`/usr/bin/python3 "
           "scripts/robustness.py --robots %d --seed %d`); per real-time factor: runs that "
           "succeeded, then median / 95th percentile / worst.\n" % (a.robots, a.seed, a.robots,
                                                                   a.seed))

@@ -23,7 +23,7 @@ end=$(date +%s.%N)
 line=$(grep -a "camera_calibration_node: wrote" "$root/roslaunch.log" | sed 's/.*camera_calibration_node: //; s/\x1b\[[0-9;]*m//g' || true)
 # "wrote FILE: fx .. fy .. cx .. cy .. k1 .., RMS .. px over N views (...), sweep .. s" -> the figures.
 found=$(printf '%s\n' "$line" | sed -n 's/^wrote [^:]*: fx \([-0-9.]*\) fy \([-0-9.]*\) cx \([-0-9.]*\) cy \([-0-9.]*\) k1 \([-0-9.]*\), RMS \([0-9.]*\) px over \([0-9]*\) views.*/fx \1, fy \2, cx \3, cy \4, k1 \5 (truth TRUTH), RMS \6 px over \7 views/p' | head -1)
-truth=$(/usr/bin/python3 -c 'import sys, yaml; c = yaml.safe_load(open(sys.argv[1]))["camera"]; print("%s, %s, %s, %s, %s" % (c["fx"], c["fy"], c["cx"], c["cy"], c["distortion_coefficients"][0]))' sim/config/robot.yaml 2>/dev/null || true)
+truth=$(/usr/bin/python3 -c 'import sys, yaml; c = yaml.safe_load(open(sys.argv[1]))["camera"]; print("%s, %s, %s, %s, %s" % (c["fx"], c["fy"], c["cx"], c["cy"], c["distortion_coefficients"][0]))' sim/config/robot_ideal.yaml 2>/dev/null || true)
 if [ -n "$found" ] && [ -n "$truth" ]; then
   result=${found/TRUTH/$truth}
 elif [ -n "$line" ]; then

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 echo "bench/sim: rendering and stepping, shortcuts on and off (about five minutes)" >&2
-taskset -c 0 build/bench/sim_bench sim/config/robot.yaml sim/config/world.yaml "${SIM_BENCH_SECONDS:-60}"
+taskset -c 0 build/bench/sim_bench sim/config/robot_ideal.yaml sim/config/world.yaml "${SIM_BENCH_SECONDS:-60}"
 cat <<'NOTE'
 
 The frame counts do not depend on the machine. A still frame traces about 47 000 pixel-corner rays
@@ -23,5 +23,5 @@ missed its drift bounds for 2 of 6 robots, and a hard stop from 0.5 m/s slipped 
 wheels' traction.
 NOTE
 echo
-echo "Reproduce: \`make build && taskset -c 0 build/bench/sim_bench sim/config/robot.yaml sim/config/world.yaml 60\`"
+echo "Reproduce: \`make build && taskset -c 0 build/bench/sim_bench sim/config/robot_ideal.yaml sim/config/world.yaml 60\`"
 echo "(or \`bash scripts/bench/sim.sh\`)."

@@ -171,6 +171,10 @@ RobotConfig readRobot(YamlMap& m) {
   if (c.jpeg_quality < 1 || c.jpeg_quality > 100) cam.fail("jpeg_quality", "must be 1..100");
   c.vignetting = inRange(cam, "vignetting", c.vignetting, 0.0, 0.9);
   c.brightness_sigma = inRange(cam, "brightness_sigma", c.brightness_sigma, 0.0, 0.3);
+  c.readout_s = inRange(cam, "readout_s", c.readout_s, 0.0, 0.1);
+  if (c.readout_s >= 1.0 / c.rate_hz) {
+    cam.fail("readout_s", "must be shorter than a frame period (1 / rate_hz)");
+  }
   c.focus_ring_sharp_turns =
       inRange(cam, "focus_ring_sharp_turns", c.focus_ring_sharp_turns, -5.0, 5.0);
   c.defocus_px_per_turn = inRange(cam, "defocus_px_per_turn", c.defocus_px_per_turn, 0.0, 50.0);

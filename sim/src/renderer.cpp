@@ -9,6 +9,7 @@
 
 #include "autocal/errors.h"
 #include "autocal/sim/scene.h"
+#include "autocal/sim/simulation.h"
 #include "ray_tracer.h"
 
 namespace autocal {
@@ -181,7 +182,7 @@ Renderer::Renderer(const CameraConfig& camera, const WorldConfig& world,
 Renderer::~Renderer() = default;
 
 void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
-                          float* acc) {
+                          float* acc, int v_begin, int v_end) {
   const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
   tracer_->prepare(origin, pose.yaw_rad, view_.get());
   const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
@@ -288,8 +289,10 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
   };
 
   if (width_ % 2 != 0 || height_ % 2 != 0) {
-    for (size_t i = 0; i < corner_dirs_.size(); ++i) traceCorner(i);
-    for (int v = 0; v < height_; ++v) {
+    for (size_t i = static_cast<size_t>(v_begin * W); i < static_cast<size_t>((v_end + 1) * W); ++i) {
+      traceCorner(i);
+    }
+    for (int v = v_begin; v < v_end; ++v) {
       for (int u = 0; u < width_; ++u) shadePixel(u, v);
     }
     return;
@@ -358,7 +361,7 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
   };
   const bool by4 = width_ % 4 == 0 && height_ % 4 == 0;
   if (!by4) {
-    for (int v = 0; v < height_; v += 2) {
+    for (int v = v_begin; v < v_end; v += 2) {
       for (int u = 0; u < width_; u += 2) block2(u, v);
     }
     return;
@@ -381,14 +384,14 @@ void Renderer::renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bo
     block2(u, v + 2);
     block2(u + 2, v + 2);
   };
-  for (int v = 0; v < height_; v += 4) {
+  for (int v = v_begin; v < v_end; v += 4) {
     for (int u = 0; u < width_; u += 4) block4(u, v);
   }
 }
 
 cv::Mat Renderer::renderExact(const Pose2& pose) {
   cv::Mat acc(height_, width_, CV_32FC3);
-  renderPose(pose, true, false, true, acc.ptr<float>());
+  renderPose(pose, true, false, true, acc.ptr<float>(), 0, height_);
   return acc;
 }
 
@@ -431,7 +434,7 @@ const cv::Mat& Renderer::renderNoiseless(const std::vector<Pose2>& poses) {
       block_sums_.assign(static_cast<size_t>(4 * (width_ / 4) * (height_ / 4)), Rgb());
       block_summed_.assign(static_cast<size_t>((width_ / 4) * (height_ / 4)), 0);
     }
-    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, still, acc.ptr<float>());
+    for (const Pose2& p : poses) renderPose(p, still, sum_blocks, still, acc.ptr<float>(), 0, height_);
     if (sum_blocks) {
       for (int v = 0; v < height_; v += 4) {
         for (int u = 0; u < width_; u += 4) {
@@ -452,9 +455,41 @@ const cv::Mat& Renderer::renderNoiseless(const std::vector<Pose2>& poses) {
   return acc;
 }
 
+int Renderer::rollingBandRows() const {
+  // Bands of about 32 rows, a multiple of the 4 x 4 blocks (of 2 x 2 for sides not divisible by 4).
+  const int step = width_ % 4 == 0 && height_ % 4 == 0 ? 4 : 2;
+  return std::max(step, 32 / step * step);
+}
+
+cv::Mat Renderer::renderRolling(const std::vector<std::vector<Pose2>>& bands,
+                                std::mt19937_64& rng) {
+  const int band_rows = rollingBandRows();
+  const int n_bands = (height_ + band_rows - 1) / band_rows;
+  if (static_cast<int>(bands.size()) != n_bands) {
+    throw InputError("renderer: a rolling-shutter frame needs " + std::to_string(n_bands) +
+                     " bands of poses, got " + std::to_string(bands.size()));
+  }
+  // Each band of rows exposed at its own time: its poses' average, rendered over its rows only.
+  accumulator_.create(height_, width_, CV_32FC3);
+  accumulator_.setTo(cv::Scalar::all(0));
+  for (int b = 0; b < n_bands; ++b) {
+    const std::vector<Pose2>& poses = bands[static_cast<size_t>(b)];
+    if (poses.empty()) throw InputError("renderer: no pose to render");
+    const int v0 = b * band_rows, v1 = std::min(height_, v0 + band_rows);
+    const bool still = poses.size() == 1;
+    for (const Pose2& p : poses) renderPose(p, still, false, false, accumulator_.ptr<float>(), v0, v1);
+    if (!still) accumulator_.rowRange(v0, v1) *= 1.0 / static_cast<double>(poses.size());
+  }
+  return finish(accumulator_, rng);
+}
+
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) {
   if (poses.empty()) throw InputError("renderer: no pose to render");
-  const cv::Mat* noiseless = &renderNoiseless(poses);
+  return finish(renderNoiseless(poses), rng);
+}
+
+cv::Mat Renderer::finish(const cv::Mat& linear, std::mt19937_64& rng) {
+  const cv::Mat* noiseless = &linear;
   if (defocus_px_ > 0) {
     // The lens out of focus blurs the light before the sensor adds its noise.
     cv::GaussianBlur(*noiseless, defocused_, cv::Size(), defocus_px_);
@@ -500,6 +535,21 @@ cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) 
     row.convertTo(out.row(v), CV_8UC3);  // rounds and saturates to 0..255
   }
   return out;
+}
+
+cv::Mat renderFrame(Renderer& renderer, const Simulation& simulation, double capture_s,
+                    int max_blur_samples, std::mt19937_64& rng) {
+  if (simulation.robot().camera.readout_s <= 0) {
+    return renderer.render(simulation.exposurePoses(capture_s, max_blur_samples), rng);
+  }
+  const auto bands =
+      simulation.rollingExposurePoses(capture_s, max_blur_samples, renderer.rollingBandRows());
+  const Pose2& first = bands[0][0];
+  const bool still = std::all_of(bands.begin(), bands.end(), [&](const std::vector<Pose2>& b) {
+    return b.size() == 1 && b[0].x_m == first.x_m && b[0].y_m == first.y_m &&
+           b[0].yaw_rad == first.yaw_rad;
+  });
+  return still ? renderer.render(bands[0], rng) : renderer.renderRolling(bands, rng);
 }
 
 }  // namespace sim

@@ -291,6 +291,19 @@ std::vector<Pose2> Simulation::exposurePoses(double capture_s, int max_samples) 
   return posesDuring(t0_s, capture_s, samples);
 }
 
+std::vector<std::vector<Pose2>> Simulation::rollingExposurePoses(double capture_s, int max_samples,
+                                                                 int band_rows) const {
+  const CameraConfig& camera = robot_.camera;
+  const int height = camera.truth.height;
+  std::vector<std::vector<Pose2>> bands;
+  for (int v0 = 0; v0 < height; v0 += std::max(1, band_rows)) {
+    const double middle_row = 0.5 * (v0 + std::min(height, v0 + band_rows));
+    bands.push_back(
+        exposurePoses(capture_s - camera.readout_s * (1.0 - middle_row / height), max_samples));
+  }
+  return bands;
+}
+
 std::vector<Pose2> Simulation::posesDuring(double t0_s, double t1_s, int samples) const {
   std::vector<Pose2> out;
   samples = std::max(samples, 1);

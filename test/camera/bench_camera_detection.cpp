@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
   line("board_in_view_kept_view_full_path", kept, with_board.size());
   // The simulator's pivot scene: 36 still frames, pivoting on the left wheel through 180 degrees.
   const std::string sim_dir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
-  const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(sim_dir + "robot.yaml");
+  const autocal::sim::RobotConfig robot = autocal::sim::loadRobotConfig(sim_dir + "robot_ideal.yaml");
   const autocal::sim::WorldConfig world = autocal::sim::loadWorldConfig(sim_dir + "world.yaml");
   autocal::sim::RenderOptions render;
   render.noise_sigma = robot.camera.noise_sigma;

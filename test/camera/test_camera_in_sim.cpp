@@ -20,7 +20,7 @@ using namespace autocal;
 
 TEST(CameraInSim, PivotingPastTheBoardsRecoversTheTrueIntrinsics) {
   const std::string dir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
-  const sim::RobotConfig robot = sim::loadRobotConfig(dir + "robot.yaml");
+  const sim::RobotConfig robot = sim::loadRobotConfig(dir + "robot_ideal.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(dir + "world.yaml");
   sim::RenderOptions render;
   render.supersampling = robot.camera.supersampling;

@@ -1,6 +1,6 @@
 // One wheel at a time (paper 000 §3.2): the wheel command of a turn, and the minimum moving duty
 // probe against a scripted motor — a deadband per wheel and direction, speed linear above it (as
-// the simulator's motor, sim/config/robot.yaml), encoders quantised.
+// the simulator's motor, sim/config/robot_ideal.yaml), encoders quantised.
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -115,7 +115,7 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
 }
 
 TEST(SweepRunInSim, DefaultRobotAndWorld) {
-  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot.yaml");
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot_ideal.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
   camera::SweepRun run(runOptionsFor(robot), cameraConfigFor(world, robot));
   const test::SweepInSim r = test::runSweepInSim(robot, world, run, test::SweepInSimOptions());
@@ -216,12 +216,12 @@ void expectReplayMatches(const std::string& robot_file, const std::string& world
   EXPECT_NEAR(e.fx, robot.camera.truth.fx, 0.003 * robot.camera.truth.fx);
 }
 
-TEST(SweepReplayInSim, DefaultRobot) { expectReplayMatches("robot.yaml", "world.yaml"); }
+TEST(SweepReplayInSim, DefaultRobot) { expectReplayMatches("robot_ideal.yaml", "world.yaml"); }
 
 TEST(SweepReplayInSim, WideLens) { expectReplayMatches("fleet/robot_wide.yaml", "world.yaml"); }
 
 TEST(SweepReplay, TakesOneSettledFrameAStopOnlyWhileCollecting) {
-  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot.yaml");
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot_ideal.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
   camera::SweepReplay r(runOptionsFor(robot), cameraConfigFor(world, robot));
   const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
@@ -267,6 +267,6 @@ INSTANTIATE_TEST_SUITE_P(Configs, SweepRunOverFleet,
                          ::testing::Values(Case{"fleet/robot_wide.yaml", "world.yaml"},
                                            Case{"fleet/robot_narrow.yaml", "world.yaml"},
                                            Case{"fleet/robot_p95.yaml", "world_boards_b.yaml"},
-                                           Case{"robot.yaml", "world_boards_b.yaml"}));
+                                           Case{"robot_ideal.yaml", "world_boards_b.yaml"}));
 
 }  // namespace

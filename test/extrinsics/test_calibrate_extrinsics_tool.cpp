@@ -43,7 +43,7 @@ class CalibrateExtrinsicsTool : public ::testing::Test {
     dir_ = fs::temp_directory_path() / ("autocal_extrinsics_tool_" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
-    robot_ = sim::loadRobotConfig(kConfigDir + "robot.yaml");
+    robot_ = sim::loadRobotConfig(kConfigDir + "robot_ideal.yaml");
     robot_.camera.roll_rad = 0.02;
     robot_.camera.yaw_rad = -0.03;
     camera_ = sim::trueCameraInfo(robot_);

@@ -22,7 +22,7 @@ const std::string kConfigDir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
 
 sim::RobotConfig mounted(double height_m, double pitch_rad, double roll_rad, double yaw_rad,
                          double x_m, double y_m) {
-  sim::RobotConfig robot = sim::loadRobotConfig(kConfigDir + "robot.yaml");
+  sim::RobotConfig robot = sim::loadRobotConfig(kConfigDir + "robot_ideal.yaml");
   robot.camera.height_m = height_m;
   robot.camera.pitch_rad = pitch_rad;
   robot.camera.roll_rad = roll_rad;
@@ -49,7 +49,7 @@ class FloorBoardInSim : public ::testing::TestWithParam<int> {};
 sim::RobotConfig mountNumber(int i) {
   switch (i) {
     case 0:
-      return sim::loadRobotConfig(kConfigDir + "robot.yaml");
+      return sim::loadRobotConfig(kConfigDir + "robot_ideal.yaml");
     case 1:
       return mounted(0.095, 0.33, 0.02, 0.03, 0.065, 0.008);
     case 2:

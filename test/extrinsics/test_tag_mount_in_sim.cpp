@@ -24,7 +24,7 @@ using namespace autocal;
 const std::string kConfigDir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
 
 sim::RobotConfig mountNumber(int i) {
-  sim::RobotConfig r = sim::loadRobotConfig(kConfigDir + "robot.yaml");
+  sim::RobotConfig r = sim::loadRobotConfig(kConfigDir + "robot_ideal.yaml");
   test::setCameraMount(r, i);
   return r;
 }

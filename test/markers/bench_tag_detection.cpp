@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
   const int rounds = argc > 2 ? std::atoi(argv[2]) : 3;
   cv::setNumThreads(1);  // one core: OpenCV's remap and cvtColor would otherwise use a pool
   const std::string dir = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
-  const sim::RobotConfig robot = sim::loadRobotConfig(dir + "robot.yaml");
+  const sim::RobotConfig robot = sim::loadRobotConfig(dir + "robot_ideal.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(dir + "world.yaml");
   sim::RenderOptions ro;
   ro.supersampling = robot.camera.supersampling;

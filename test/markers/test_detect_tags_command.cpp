@@ -87,7 +87,7 @@ struct Score {
 class DetectTagsCommand : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    robot_ = new sim::RobotConfig(sim::loadRobotConfig(kSimConfig + "robot.yaml"));
+    robot_ = new sim::RobotConfig(sim::loadRobotConfig(kSimConfig + "robot_ideal.yaml"));
     world_ = new sim::WorldConfig(sim::loadWorldConfig(kSimConfig + "world.yaml"));
     sim::RenderOptions ro;
     ro.supersampling = robot_->camera.supersampling;

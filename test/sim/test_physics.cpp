@@ -19,7 +19,7 @@ using autocal::sim::WorldConfig;
 namespace {
 
 RobotConfig defaultRobot() {
-  return autocal::sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  return autocal::sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml");
 }
 
 RobotConfig idealRobot() {

@@ -15,7 +15,7 @@ namespace {
 
 const std::string kSource = AUTOCAL_SOURCE_DIR;
 
-sim::RobotConfig defaultRobot() { return sim::loadRobotConfig(kSource + "/sim/config/robot.yaml"); }
+sim::RobotConfig defaultRobot() { return sim::loadRobotConfig(kSource + "/sim/config/robot_ideal.yaml"); }
 
 sim::WorldConfig wallAt(double x) {
   sim::WorldConfig w;
@@ -99,7 +99,7 @@ std::string slurp(const std::string& path) {
 /// The message of the ConfigError that parsing `yaml` throws ("" when it does not throw).
 std::string robotError(const std::string& yaml) {
   try {
-    sim::parseRobotConfig(yaml, "robot.yaml");
+    sim::parseRobotConfig(yaml, "robot_ideal.yaml");
   } catch (const autocal::ConfigError& e) {
     return e.what();
   }
@@ -131,9 +131,9 @@ TEST(SimConfig, ShippedConfigsLoad) {
 }
 
 TEST(SimConfig, UnknownKeyIsAnErrorNamingFileLineAndKey) {
-  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  const std::string base = slurp(kSource + "/sim/config/robot_ideal.yaml");
   const std::string msg = robotError(replaced(base, "  jpeg_quality: 90", "  jpeg_quality: 90\n  jpeg_qualty: 80"));
-  EXPECT_NE(msg.find("robot.yaml:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("robot_ideal.yaml:"), std::string::npos) << msg;
   EXPECT_NE(msg.find("camera.jpeg_qualty: unknown key"), std::string::npos) << msg;
   const std::string top = robotError(base + "\nwheel_radius: 0.03\n");
   EXPECT_NE(top.find("wheel_radius: unknown key"), std::string::npos) << top;
@@ -141,10 +141,10 @@ TEST(SimConfig, UnknownKeyIsAnErrorNamingFileLineAndKey) {
 
 TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   const sim::RobotConfig ideal = defaultRobot();
-  EXPECT_EQ(ideal.breakaway_duty_left, ideal.deadband) << "robot.yaml's robot is ideal";
+  EXPECT_EQ(ideal.breakaway_duty_left, ideal.deadband) << "robot_ideal.yaml's robot is ideal";
   EXPECT_FALSE(ideal.transport.camera.active());
   EXPECT_FALSE(ideal.transport.wheels_cmd.active());
-  const sim::RobotConfig real = sim::loadRobotConfig(kSource + "/sim/config/robot_real.yaml");
+  const sim::RobotConfig real = sim::loadRobotConfig(kSource + "/sim/config/robot.yaml");
   EXPECT_GT(real.breakaway_duty_left, real.deadband);
   EXPECT_GT(real.breakaway_duty_right, real.deadband);
   EXPECT_LT(real.gain_drift_per_min, 0.0);
@@ -155,17 +155,19 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   EXPECT_GT(real.transport.camera.drop_probability, 0.0);
   EXPECT_GT(real.transport.encoders.latency_s, 0.0);
   EXPECT_GT(real.transport.wheels_cmd.latency_s, 0.0);
+  EXPECT_GT(real.camera.readout_s, 0.0);
+  EXPECT_EQ(real.camera.truth.distortion_model, sim::DistortionModel::kEquidistant);
 
-  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  const std::string base = slurp(kSource + "/sim/config/robot_ideal.yaml");
   // Without the keys: none of it.
   std::string bare = replaced(base, "breakaway_duty_left: 0.08", "");
   bare = replaced(bare, "  camera: {latency_s: 0.0, jitter_s: 0.0, drop_probability: 0.0}", "");
-  const sim::RobotConfig r = sim::parseRobotConfig(bare, "robot.yaml");
+  const sim::RobotConfig r = sim::parseRobotConfig(bare, "robot_ideal.yaml");
   EXPECT_EQ(r.breakaway_duty_left, r.deadband);
   EXPECT_FALSE(r.transport.camera.active());
   const sim::RobotConfig weak_back = sim::parseRobotConfig(
       replaced(base, "backward_gain_ratio_left: 1.0", "backward_gain_ratio_left: 0.95"),
-      "robot.yaml");
+      "robot_ideal.yaml");
   EXPECT_EQ(weak_back.backward_gain_ratio_left, 0.95);
   EXPECT_EQ(weak_back.backward_gain_ratio_right, 1.0);
   EXPECT_EQ(r.backlash_rad, 0.0);
@@ -173,9 +175,16 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
   const sim::RobotConfig worn = sim::parseRobotConfig(
       replaced(replaced(base, "backlash_rad: 0.0", "backlash_rad: 0.04"), "wheel_slip_sigma: 0.0",
                "wheel_slip_sigma: 0.01"),
-      "robot.yaml");
+      "robot_ideal.yaml");
   EXPECT_EQ(worn.backlash_rad, 0.04);
   EXPECT_EQ(worn.wheel_slip_sigma, 0.01);
+  EXPECT_EQ(r.camera.readout_s, 0.0);
+  // A rolling shutter reads its rows within a frame period (30 Hz: 33 ms).
+  EXPECT_EQ(sim::parseRobotConfig(replaced(base, "readout_s: 0.0 ", "readout_s: 0.03 "), "robot.yaml")
+                .camera.readout_s,
+            0.03);
+  EXPECT_NE(robotError(replaced(base, "readout_s: 0.0 ", "readout_s: 0.04 ")).find("readout_s: must be shorter"),
+            std::string::npos);
   EXPECT_NE(robotError(replaced(base, "backlash_rad: 0.0", "backlash_rad: -0.01")).find("backlash_rad"),
             std::string::npos);
   EXPECT_NE(robotError(replaced(base, "wheel_slip_sigma: 0.0", "wheel_slip_sigma: 0.5"))
@@ -198,7 +207,7 @@ TEST(SimConfig, MotorImperfectionsAndTransportAreReadAndChecked) {
 }
 
 TEST(SimConfig, MalformedOrMissingValuesAreErrors) {
-  const std::string base = slurp(kSource + "/sim/config/robot.yaml");
+  const std::string base = slurp(kSource + "/sim/config/robot_ideal.yaml");
   EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: abc")).find("wheelbase: expected a number, got 'abc'"),
             std::string::npos);
   EXPECT_NE(robotError(replaced(base, "wheelbase: 0.102", "wheelbase: -0.1")).find("wheelbase: must be > 0"),
@@ -213,7 +222,7 @@ TEST(SimConfig, MalformedOrMissingValuesAreErrors) {
                 .find("plumb_bob takes 5 coefficients"),
             std::string::npos);
   EXPECT_NE(robotError("camera: [1, 2\n").find("not valid YAML"), std::string::npos);
-  EXPECT_THROW(sim::loadRobotConfig("/nonexistent/robot.yaml"), autocal::ConfigError);
+  EXPECT_THROW(sim::loadRobotConfig("/nonexistent/robot_ideal.yaml"), autocal::ConfigError);
 }
 
 // Tags placed by a person: each off its listed place by N(0, sigma) in x, y and yaw, from the seed.

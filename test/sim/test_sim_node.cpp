@@ -44,7 +44,7 @@ using autocal::test::spinUntil;
 using autocal::test::spinUntilSimTime;
 using autocal::test::testParam;
 
-std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"; }
+std::string robotConfigPath() { return std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml"; }
 
 /// Every subscriber has a publisher.
 bool allConnected(const std::vector<ros::Subscriber>& subs) {
@@ -355,7 +355,7 @@ struct DelayLog {
   bool ordered() const { return std::is_sorted(stamps.begin(), stamps.end()); }
 };
 
-// Robot mode with robot_real.yaml's transport: every message arrives its link's latency after its
+// Robot mode with robot.yaml's transport: every message arrives its link's latency after its
 // capture stamp, in order; frames are lost at the link's rate; a command moves the wheels its
 // link's latency after it was sent (on the ground truth). At real_time_factor 1, on sim time.
 TEST(SimNode, MessagesArriveLateWithTheirCaptureStampsInOrder) {

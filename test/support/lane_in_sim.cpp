@@ -51,7 +51,7 @@ LanePassInSim LaneInSim::runPass(wheels::LaneRefiner& refiner, const Pose2D& sta
     }
     if (ts >= next_frame) {
       refiner.addFrame(
-          t, renderer.render(simulation.exposurePoses(ts, options_.max_blur_samples), rng_));
+          t, sim::renderFrame(renderer, simulation, ts, options_.max_blur_samples, rng_));
       ++out.frames;
       next_frame += frame_dt;
     }

@@ -28,7 +28,7 @@ StageInSimOptions odometryLoop(double max_sim_s) {
 sim::RobotConfig variant(double radius_left, double radius_right, double wheelbase,
                          double gain_left, double gain_right, double deadband) {
   sim::RobotConfig r =
-      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml");
   r.wheel_radius_left = radius_left;
   r.wheel_radius_right = radius_right;
   r.wheelbase = wheelbase;
@@ -79,10 +79,12 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
   UahInSim out;
   odometry::UahRun run(options);
   const double t0 = simulation.time_s();
+  const double start_yaw = simulation.pose().yaw_rad;
   Pose2D run_start;
   bool was_driving = false, driving = false;
   std::string last, status_key;
   StageInSimOptions o = odometryLoop(max_sim_s);
+  o.transport = hooks.transport;
   o.range_rng = &rng;
   o.encoders = [&](double t, std::int32_t& left, std::int32_t& right) {
     if (hooks.encoders) hooks.encoders(t, left, right);
@@ -96,7 +98,13 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
     // The straight run's true length: the axle centre's start-to-end distance (the helper that
     // stands for the tape measure).
     driving = run.experiment() == odometry::UahExperiment::kStraight && !run.needsStraightLength();
-    if (driving && !was_driving) run_start = simulation.pose();
+    if (driving && !was_driving) {
+      run_start = simulation.pose();
+      // Only the forward runs: a run back starts where the one before ended, turned by its drift.
+      if (run.straightRun() % 2 == 1) {
+        out.straight_start_yaw_rad.push_back(std::remainder(run_start.yaw_rad - start_yaw, 2 * M_PI));
+      }
+    }
     was_driving = driving;
     if (!run.needsStraightLength()) return;
     const Pose2D p = simulation.pose();
@@ -186,8 +194,8 @@ UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
 std::vector<OdometryTestRobot> odometryTestRobots() {
   std::vector<OdometryTestRobot> robots;
   robots.push_back(
-      {"default (robot.yaml: r_R +1.3 %, b 0.102)",
-       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"), 0.0318,
+      {"default (robot_ideal.yaml: r_R +1.3 %, b 0.102)",
+       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml"), 0.0318,
        0.1});
   robots.push_back(
       {"left wheel +2 %, b 0.109", variant(0.0325, 0.03185, 0.109, 0.95, 1.0, 0.12), 0.0318, 0.1});

@@ -37,6 +37,9 @@ struct OdometryInSim {
 };
 
 struct UahInSim : OdometryInSim {
+  /// The robot's true heading at the start of each straight run minus its heading at the start of
+  /// the run [rad, within ±π] (the turns end on whole rounds: about 0).
+  std::vector<double> straight_start_yaw_rad;
   odometry::UahResult result;
   std::vector<odometry::UahTurn> turns;              ///< also when the run failed
   std::vector<odometry::StraightRun> straight_runs;  ///< also when the run failed
@@ -55,6 +58,9 @@ struct UahSensorHooks {
   /// commands, a status on every change of experiment, round, straight run or waiting, as the
   /// node publishes it, and the lengths given): the input of odometry::replayUah.
   odometry::UahRecording* recording = nullptr;
+  /// The robot's links (RobotConfig::transport) delay the readings and the commands as sim_node
+  /// does (false: the readings at once).
+  bool transport = false;
 };
 
 struct UmbmarkInSim : OdometryInSim {

@@ -73,7 +73,7 @@ StageInSim runStageInSim(Stage& stage, sim::Simulation& simulation, const sim::R
           const bool stage_wants = stage.wantsFrame(t), tap_wants = tap && tap->wantsFrame(t);
           if (!stage_wants && !tap_wants) return;
           const cv::Mat image =
-              renderer->render(simulation.exposurePoses(t, options.max_blur_samples), rng);
+              sim::renderFrame(*renderer, simulation, t, options.max_blur_samples, rng);
           if (tap_wants) tap->frame(t, image);
           if (!stage_wants) return;
           ++out.frames_processed;

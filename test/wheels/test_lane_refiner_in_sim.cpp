@@ -19,7 +19,7 @@ namespace {
 constexpr double kMaxLateralM = 0.115 - 0.065;
 
 sim::RobotConfig robotConfig() {
-  return sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  return sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml");
 }
 sim::WorldConfig laneWorld() {
   return sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world_lane.yaml");

@@ -97,7 +97,7 @@ Result measureOverPoses(const sim::RobotConfig& robot, const wheels::CameraMount
 }  // namespace
 
 TEST(TagHeadingInSim, DefaultRobotHeadingWithinHalfADegree) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   const Result r = measureOverPoses(robot, mountOf(robot.camera), true);
   std::cout << "default: " << r.frames_with_tags << "/" << r.frames
             << " frames with tags, worst heading error " << r.worst_heading_error_rad * 180 / M_PI
@@ -121,7 +121,7 @@ TEST(TagHeadingInSim, WideLensHeadingWithinHalfADegree) {
 TEST(TagHeadingInSim, NominalMountOffByACentimetreAndADegreeStillWithinHalfADegree) {
   // The node uses the DB21's nominal mount, not the true one: a mount error changes the heading
   // only in the second order.
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   wheels::CameraMount mount = mountOf(robot.camera);
   mount.pitch_rad += M_PI / 180;
   mount.height_m += 0.01;

@@ -134,7 +134,7 @@ void expectCalibrated(const Outcome& o, const sim::WorldConfig& world, size_t ma
 }  // namespace
 
 TEST(WheelRunInSim, DefaultRobot) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   const sim::WorldConfig world = defaultWorld();
   const Outcome o = calibrateAndValidate(robot, world, robot.deadband + 0.007,
                                          std::getenv("AUTOCAL_TRACE") != nullptr);
@@ -149,7 +149,7 @@ TEST(WheelRunInSim, DefaultRobot) {
 // drive (11-14 drives, once no convergence in 14). The node starts both wheels from their mean
 // (wheels::deadbandGuesses): the run must look like one from equal guesses.
 TEST(WheelRunInSim, ProbeMinimaOneDutyStepApartAreOneDeadband) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   const sim::WorldConfig world = defaultWorld();
   const wheels::DeadbandGuesses g = wheels::deadbandGuesses(0.10, 0.11, 0.01);
   ASSERT_DOUBLE_EQ(g.left, g.right);
@@ -169,7 +169,7 @@ TEST(WheelRunInSim, ProbeMinimaOneDutyStepApartAreOneDeadband) {
 // drive turned 30 deg and the robot left the tag field. The fit must rebase k
 // (wheels::addDriveToFit): no drive turns by more than the first.
 TEST(WheelRunInSim, GuessesTwoDutyStepsApartForEqualDeadbands) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   const sim::WorldConfig world = defaultWorld();
   const wheels::DeadbandGuesses g = wheels::deadbandGuesses(0.11, 0.13, 0.01);
   ASSERT_NE(g.left, g.right);
@@ -259,7 +259,7 @@ TEST(MotorFitter, EachDirectionsSlopeThroughOneOffset) {
 class WheelRunMountInSim : public ::testing::TestWithParam<int> {};
 
 TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
-  sim::RobotConfig robot = robotConfig("robot.yaml");
+  sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   test::setCameraMount(robot, GetParam());
   wheels::WheelRunOptions o = optionsFor(robot, robot.deadband + 0.007);
   o.extrinsics_spins = 4;
@@ -298,11 +298,11 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
 
 INSTANTIATE_TEST_SUITE_P(FourMounts, WheelRunMountInSim, ::testing::Range(0, test::kCameraMounts));
 
-// On robot_real.yaml the short hops do not drive straight (backlash taken up by one wheel, static
+// On robot.yaml the short hops do not drive straight (backlash taken up by one wheel, static
 // friction, late commands): a mount is then either within the targets by the truth, or refused by
 // its own uncertainty, never written wrong. The trim is right either way.
 TEST(WheelRunMountInSim, RealRobotMountIsRightOrRefusedByItsUncertainty) {
-  const sim::RobotConfig robot = robotConfig("robot_real.yaml");
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
   wheels::WheelRunOptions o = optionsFor(robot, robot.breakaway_duty_left + 0.01);
   o.extrinsics_spins = 4;
   wheels::WheelRun run(o, robot.camera.truth);
@@ -359,7 +359,7 @@ TEST(WheelRunDeadbandGuesses, FirstGuessesComeFromTheParameterTheCameraStageOrTh
 /// −0.09 to +0.08, 5th..95th percentile): motor gains, wheel radii and deadbands.
 sim::RobotConfig variant(double gain_left, double gain_right, double radius_left,
                          double radius_right, double deadband) {
-  sim::RobotConfig r = robotConfig("robot.yaml");
+  sim::RobotConfig r = robotConfig("robot_ideal.yaml");
   r.motor_gain_left = gain_left;
   r.motor_gain_right = gain_right;
   r.wheel_radius_left = radius_left;
@@ -386,7 +386,7 @@ TEST(WheelRunInSim, LargerRightWheelWeakerLeftMotor) {
 // Gear motors a few per cent faster one way than the other: one line through the drives forward
 // and back took deadbands 0.066/0.087 for 0.08 and drifted 61 cm over 2 m at 0.4 m/s.
 TEST(WheelRunInSim, ForwardAndBackwardGainsDiffer) {
-  sim::RobotConfig robot = robotConfig("robot.yaml");
+  sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   robot.backward_gain_ratio_left = 0.98;
   robot.backward_gain_ratio_right = 1.01;
   const Outcome o = calibrateAndValidate(robot, defaultWorld(), 0.085);
@@ -401,11 +401,11 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld());
 }
 
-// robot_real.yaml: static friction above the running deadband, motors 2 % slower and 1 % faster
+// robot.yaml: static friction above the running deadband, motors 2 % slower and 1 % faster
 // backward than forward, a sagging battery, gearbox backlash, wheels that slip at random, frames
 // 0.1 s late with jitter and one in ten lost, encoder readings and commands 30 ms late.
 TEST(WheelRunInSim, RealRobotLateMessagesStaticFrictionLostFrames) {
-  const sim::RobotConfig robot = robotConfig("robot_real.yaml");
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
   ASSERT_GT(robot.breakaway_duty_left, robot.deadband);
   ASSERT_TRUE(robot.transport.camera.active());
   // The camera stage's probe finds the breakaway duties (to its 0.01 step), which the wheel node
@@ -447,7 +447,7 @@ void expectReplayMatches(const sim::RobotConfig& robot, double deadband_guess,
 }
 
 TEST(WheelReplayInSim, DefaultRobot) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   expectReplayMatches(robot, robot.deadband + 0.007);
 }
 
@@ -459,14 +459,14 @@ TEST(WheelReplayInSim, LeftWheelStrongTrimPlus008WideDeadband) {
 // of the drive they started, as rosbag record wrote them on a loaded machine) replays as the live
 // run: the motions are cut at the commands' stamps.
 TEST(WheelReplayInSim, CommandsRecordedLate) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   expectReplayMatches(robot, robot.deadband + 0.007, 0.7);
 }
 
 // The live run's guesses two duty steps apart (0.11/0.13 for 0.08/0.08): the fit rebases k, in
 // the replay as live.
 TEST(WheelReplayInSim, GuessesTwoDutyStepsApart) {
-  expectReplayMatches(robotConfig("robot.yaml"), 0.11, 0.0, 0.13);
+  expectReplayMatches(robotConfig("robot_ideal.yaml"), 0.11, 0.0, 0.13);
 }
 
 /// A replay that gets no frame of the still after the `nth` drive forward (a recording played on a
@@ -496,7 +496,7 @@ struct StillWithoutFramesTap : ReplayTap {
 // live run wrote 0.0092 (34 cm of drift over 2 m), and one in replay.test that lost a still's
 // frames wrote 0.0024 for 0.0087.
 TEST(WheelReplayInSim, AStillWithoutFramesDoesNotCarryOver) {
-  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   StillWithoutFramesTap tap(wheels::WheelRunOptions(), robot.camera.truth, 1);
   const Outcome live =
       calibrateAndValidate(robot, defaultWorld(), robot.deadband + 0.007, false, &tap);
@@ -514,7 +514,7 @@ TEST(WheelReplayInSim, AStillWithoutFramesDoesNotCarryOver) {
 TEST(WheelReplay, ARecordingWithoutTheIterationIsAClearError) {
   wheels::WheelReplay replay{wheels::WheelRunOptions()};
   EXPECT_THROW(replay.result(), CalibrationError);  // no intrinsics
-  replay.setIntrinsics(robotConfig("robot.yaml").camera.truth);
+  replay.setIntrinsics(robotConfig("robot_ideal.yaml").camera.truth);
   EXPECT_THROW(replay.result(), CalibrationError);  // no encoders
   replay.addEncoders(0.0, 0, 0, 135);
   replay.addCommand(0.1, {0.3, 0.3});  // a drive out, never driven back: a leave, not a cycle

@@ -26,7 +26,8 @@ struct CalibrationOptions {
   DistortionModel model = DistortionModel::kPlumbBob;
   /// Lens models tried in this order when the result with `model` fails its quality gate
   /// (calibrateChoosingModel): the first one the gate passes is written. Empty: `model` is pinned.
-  std::vector<DistortionModel> fallback_models{DistortionModel::kRationalPolynomial};
+  std::vector<DistortionModel> fallback_models{DistortionModel::kRationalPolynomial,
+                                               DistortionModel::kEquidistant};
   /// Fewer views than this are refused.
   int min_views = 6;
   /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.

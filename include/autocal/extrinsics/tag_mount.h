@@ -50,6 +50,11 @@ struct TagMountOptions {
   double min_spin_rad = 0.15;  ///< a turn smaller than this says little about the axle's place
   int min_straight = 1;        ///< straight drives needed (with a tag seen before and after)
   int min_spins = 2;           ///< turns on the spot needed
+  /// A drive made with the calibrated trim is taken as straight (no turn) unless the tags seen
+  /// before and after say it turned by more than this [rad]: a robot's short hops turn by a few
+  /// degrees as one wheel starts late (static friction, gearbox play, late commands), and the
+  /// camera's yaw from such a hop needs the turn; below it, one tag's angle is noise.
+  double max_straight_turn_rad = 0.01;
 
   /// Throws ConfigError naming the bad key.
   void validate() const;

@@ -57,9 +57,10 @@ struct UahRunOptions : EncoderDriveOptions {
   /// §2.3: runs whose heading strayed beyond this are rejected.
   StraightRunOptions straight;
   /// Heading hold on the straight runs: left duty += gain·(N_R − N_L/Ed) [duty/pulse], plus its
-  /// integral [duty/(pulse·s)].
-  double heading_gain_duty_per_pulse = 0.01;
-  double heading_integral_duty_per_pulse_s = 0.03;
+  /// integral [duty/(pulse·s)]. Gentle: a robot's readings and commands come 50-100 ms late, and
+  /// twice these gains made its heading swing by a pulse either way (runs over 2 deg, on robot.yaml).
+  double heading_gain_duty_per_pulse = 0.005;
+  double heading_integral_duty_per_pulse_s = 0.015;
   /// A given length this far from the one the nominal pulses say means a cut-short run or a wrong
   /// measurement [fraction].
   double max_length_mismatch = 0.25;
@@ -210,6 +211,11 @@ class UahRun : public Stage {
   std::vector<std::array<double, 2>> ranges_;  // stamp, range
   int invalid_ranges_ = 0;
   double online_ppr_ = 0, next_check_pulses_ = 0, turn_target_pulses_ = 0;
+  // A turn ends on whole rounds, so that the robot faces where it did before (the straight runs
+  // go where the spin leaves it): it stops early by the time the last turn coasted on after its
+  // stop [s] (the wheels' lag, and on a robot the commands' and the readings' delays). Where and
+  // at which rate the last stop was decided.
+  double coast_s_ = 0.05, stop_pulses_ = 0, stop_rate_ = 0;
   std::string last_detection_error_;
   std::vector<double> right_ppr_left_stopped_, left_ppr_right_stopped_;
   double Ed_ = 1.0;

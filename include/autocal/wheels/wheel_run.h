@@ -131,7 +131,7 @@ struct WheelRunOptions {
   int extrinsics_spins = 0;
   double extrinsics_spin_rad = 0.3;
   double extrinsics_drive_m = 0.12;
-  int extrinsics_drives = 4;  ///< half of them forward, then as many back
+  int extrinsics_drives = 6;  ///< half of them forward, then as many back
   /// The mount is refused (no extrinsics, the stage goes on) when one standard deviation of it
   /// (the jackknife over the stills) moves a floor point 0.5 m ahead by more than this [m]
   /// (extrinsics::floorSigmaM), or when too few stills give no standard deviation.

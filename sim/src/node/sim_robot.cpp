@@ -185,8 +185,9 @@ bool SimRobot::beginFrame(double capture_s) {
   frame_compressed_ = compressed_pub_.getNumSubscribers() > 0;
   frame_raw_ = image_pub_.getNumSubscribers() > 0;
   frame_capture_s_ = capture_s;
-  const ros::Time t =
-      ros_layer::toRosTime(capture_s - 0.5 * robot_.camera.exposure_s);  // mid-exposure
+  // Mid-exposure of the middle row (with a rolling shutter the last row is read at capture_s).
+  const ros::Time t = ros_layer::toRosTime(capture_s - 0.5 * robot_.camera.readout_s -
+                                           0.5 * robot_.camera.exposure_s);
   sensor_msgs::CameraInfo info = ros_layer::toCameraInfo(robot_.camera.nominal);
   info.header.stamp = t;
   info.header.frame_id = camera_frame_;
@@ -209,8 +210,8 @@ bool SimRobot::beginFrame(double capture_s) {
 }
 
 void SimRobot::renderFrame() {
-  const cv::Mat image = renderer_->render(
-      sim_->exposurePoses(frame_capture_s_, options_.max_blur_samples), camera_rng_);
+  const cv::Mat image =
+      sim::renderFrame(*renderer_, *sim_, frame_capture_s_, options_.max_blur_samples, camera_rng_);
   if (frame_compressed_) {
     frame_jpeg_.format = "jpeg";
     cv::imencode(".jpg", image, frame_jpeg_.data,

@@ -21,6 +21,7 @@ void TagMountOptions::validate() const {
     throw ConfigError("min_spin_rad: must be within (0, pi) [rad]");
   if (min_straight < 1) throw ConfigError("min_straight: must be >= 1");
   if (min_spins < 1) throw ConfigError("min_spins: must be >= 1");
+  if (!(max_straight_turn_rad >= 0)) throw ConfigError("max_straight_turn_rad: must be >= 0 [rad]");
 }
 
 namespace {
@@ -189,12 +190,14 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
     } else if (v.shift.norm() >= options.min_drive_m) {
       drives.push_back({v, p.motion == StillMotion::kForward});
       if (p.straight) {
-        // Driven with the calibrated trim: straight, and its turn is better taken as none than
-        // from one tag's angle (a few 0.1 deg off, and a tag 0.35 m ahead moves the shift by
-        // 6 mm per degree).
+        // Driven with the calibrated trim: straight, and a small turn is better taken as none
+        // than from the tags' angles (a few 0.1 deg off, and a tag 0.35 m ahead moves the shift
+        // by 6 mm per degree). A larger one is the hop's own (see max_straight_turn_rad).
         straight_drives.push_back({v, p.motion == StillMotion::kForward});
-        straight_drives.back().first.turn = 0;
-        straight_drives.back().first.shift = v.shift_straight;
+        if (std::abs(v.turn) <= options.max_straight_turn_rad) {
+          straight_drives.back().first.turn = 0;
+          straight_drives.back().first.shift = v.shift_straight;
+        }
       }
     }
   }

@@ -343,6 +343,9 @@ void UahRun::nextAfterTurns(double now_s) {
 
 void UahRun::onSettled(double now_s) {
   if (isTurn(experiment_)) {
+    // How long this turn coasted on after its stop: the next ones stop that much earlier.
+    const double p = turnPulses(drive_.samples().back());
+    if (stop_rate_ > 0) coast_s_ = std::clamp((p - stop_pulses_) / stop_rate_, 0.0, 1.0);
     finishTurn();
     nextAfterTurns(now_s);
     return;
@@ -469,8 +472,9 @@ WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
   }
   const double rate = experiment_ == UahExperiment::kSpin ? options_.spin_rate_pulses_per_s
                                                           : options_.pivot_rate_pulses_per_s;
-  // Stop a little early: the wheel coasts for about its lag (~0.05 s) after the stop.
-  if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - 0.05 * rate) {
+  // Stop early by the time the last turn coasted on after its stop (see coast_s_).
+  if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - coast_s_ * rate) {
+    stop_pulses_ = p, stop_rate_ = rate;
     stop(now_s);
     return duties_;
   }

@@ -122,6 +122,9 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
 ros_layer::StageInputs stageInputs(const OdometryCalibrationNodeOptions& o) {
   ros_layer::StageInputs in;
   in.ranges = o.method == "uah";
+  // Each wheel's count with the other's at the same instant: a robot's two encoder messages come
+  // apart, and the straight runs' heading control and check would see turns that did not happen.
+  in.pair_encoders = true;
   // The stage is built at the first encoder reading: the nominal robot needs its resolution.
   in.first_encoders_wait_s =
       (o.method == "umbmark" ? o.umbmark.encoder_timeout_s : o.run.encoder_timeout_s) +

@@ -38,6 +38,9 @@ struct CameraConfig {
   double vignetting = 0.0;
   /// Each frame's brightness is scaled by 1 + N(0, brightness_sigma) (auto-exposure, light).
   double brightness_sigma = 0.0;
+  /// Rolling shutter: the rows are read out one after the other over this time [s], the top row
+  /// first; each row's exposure ends when it is read (0: a global shutter).
+  double readout_s = 0.0;
   /// The focus ring: the position at which the lens is sharp [turns], and the defocus blur (a
   /// Gaussian's sigma) per turn away from it [px/turn]. The ring stands at the sharp position
   /// unless sim_node is told otherwise at run time (<veh>/sim_lens/focus_ring_turns).

@@ -84,6 +84,13 @@ class Renderer {
   /// their average blurs the edges far more than a pixel, and it keeps blurred frames cheap. `rng` draws the noise offsets, so a seeded rng gives the same image.
   cv::Mat render(const std::vector<Pose2>& poses, std::mt19937_64& rng);
 
+  /// A rolling shutter's frame: the image's rows in bands of rollingBandRows() rows from the top,
+  /// each band seen from the average of its own poses (its rows' exposure); every band is rendered
+  /// anew (no still-frame reuse, no half resolution).
+  cv::Mat renderRolling(const std::vector<std::vector<Pose2>>& bands, std::mt19937_64& rng);
+  /// Rows per band of renderRolling (the last band may have fewer).
+  int rollingBandRows() const;
+
   /// The lens's defocus from now on: a Gaussian blur of this sigma [px] before the noise (0: sharp).
   void setDefocusPx(double sigma_px) { defocus_px_ = sigma_px > 0 ? sigma_px : 0.0; }
 
@@ -107,9 +114,11 @@ class Renderer {
  private:
   /// Adds the image of one pose to `accumulate` (store: writes it, every pixel); with sum_blocks (a
   /// blurred frame, image sides multiples of 4), the 4 x 4 blocks it blends add their corners'
-  /// colours to block_sums_ instead.
+  /// colours to block_sums_ instead. Only the rows [v_begin, v_end) (multiples of the block size).
   void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
-                  float* accumulate);
+                  float* accumulate, int v_begin, int v_end);
+  /// The frame from its noiseless linear image: defocus, brightness, vignetting, noise, 8 bits.
+  cv::Mat finish(const cv::Mat& linear, std::mt19937_64& rng);
   /// The noiseless linear image (CV_32FC3) of these poses' average: a buffer of this renderer
   /// (the last still frame's image, or the blur accumulator), valid until the next call.
   const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses);
@@ -151,6 +160,15 @@ class Renderer {
   std::unique_ptr<Renderer> half_;
   cv::Mat upscaled_;
 };
+
+class Simulation;
+
+/// The frame the robot's camera captures at capture_s (its exposure, or with a rolling shutter its
+/// readout, ending then): motion-blurred over the exposure's poses (at most max_blur_samples), and
+/// with CameraConfig::readout_s > 0 each band of rows at its own time (one still image when the
+/// robot stood still over the whole readout). What sim_node publishes.
+cv::Mat renderFrame(Renderer& renderer, const Simulation& simulation, double capture_s,
+                    int max_blur_samples, std::mt19937_64& rng);
 
 }  // namespace sim
 }  // namespace autocal

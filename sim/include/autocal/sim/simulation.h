@@ -90,6 +90,11 @@ class Simulation {
   /// as the image moves by pixels (at most max_samples), so a still robot gives one pose and a
   /// moving one a motion-blurred frame.
   std::vector<Pose2> exposurePoses(double capture_s, int max_samples) const;
+  /// A rolling shutter's frame (CameraConfig::readout_s > 0) whose readout ended at capture_s: per
+  /// band of band_rows image rows from the top, the exposure poses of the band's middle row, whose
+  /// exposure ends readout_s * (1 - row / height) before capture_s.
+  std::vector<std::vector<Pose2>> rollingExposurePoses(double capture_s, int max_samples,
+                                                       int band_rows) const;
 
   /// Range sensor: the nearest obstacle over the sensor's cone [m] without noise; +inf when
   /// nothing is within max_range_m.

@@ -6,14 +6,15 @@ Draws N robots (seeded) from sim/config/robot.yaml (the realistic default robot)
 Duckietown's plumb_bob calibrations see as 317-361; cx 300-336, cy 210-256; k1 -0.01..0.05, k2
 -0.03..0.01), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
 backward gains, a gain drift, gearbox backlash and wheel slip within their documented ranges, and the transport of
-robot.yaml. Each robot runs `rosrun autocal calibrate_sim` (camera and wheel stages; with
---odometry also the UAH stage) at each real-time factor given (1: a robot's own computer; 3: one
+robot.yaml. Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH
+stages; --no-odometry: the first two) at each real-time factor given (1: a robot's own computer; 3: one
 three times slower), on its own master. From the simulator's truth (compare_camera,
-compare_wheels) it reports per run the result and reason, fx/fy error, the whole-image
-projection difference, the trim error and the drift over 2 m, and prints Markdown tables with the
+compare_wheels, the odometry file against the robot's radii and wheelbase) it reports per run the
+result and reason, fx/fy error, the whole-image projection difference, the trim error, the drift
+over 2 m, the errors of Ed and the wheelbase, and prints Markdown tables with the
 distributions (median, 95th percentile, worst) for BENCHMARKS.md.
 
-    /usr/bin/python3 scripts/robustness.py [--robots 20] [--rtf 1 3] [--seed 1] [--odometry]
+    /usr/bin/python3 scripts/robustness.py [--robots 20] [--rtf 1 3] [--seed 1] [--no-odometry]
                                            [--out build/robustness]
 
 Needs `make build` and the devel space sourced (the Makefile's robustness target does both).
@@ -75,6 +76,16 @@ def figures(pattern, text):
 def judge(robot_file, root, veh):
     """The run's files against the truth: a dict of figures (missing ones absent)."""
     out = {}
+    odometry = os.path.join(root, "odometry", veh + ".yaml")
+    if os.path.isfile(odometry):
+        # UAH's Ed = c_R / c_L (the wheels' radii) and the wheelbase, against the robot's truth.
+        with open(robot_file) as f:
+            robot = yaml.safe_load(f)
+        with open(odometry) as f:
+            o = yaml.safe_load(f)
+        true_ed = robot["wheel_radius_right"] / robot["wheel_radius_left"]
+        out["ed_pct"] = abs(100 * (o["Ed"] / true_ed - 1))
+        out["wheelbase_pct"] = abs(100 * (o["b"] / robot["wheelbase"] - 1))
     camera = os.path.join(root, "camera_intrinsic", veh + ".yaml")
     kinematics = os.path.join(root, "kinematics", veh + ".yaml")
     if os.path.isfile(camera):
@@ -134,7 +145,8 @@ def main():
     ap.add_argument("--robots", type=int, default=20)
     ap.add_argument("--rtf", type=float, nargs="+", default=[1.0, 3.0])
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--odometry", action="store_true")
+    ap.add_argument("--no-odometry", dest="odometry", action="store_false",
+                    help="camera and wheel stages only (no UAH stage)")
     ap.add_argument("--out", default=os.path.join(PKG, "build", "robustness"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -167,7 +179,8 @@ def main():
             ("proj_rms_px", "projection RMS px"), ("proj_worst_px", "projection worst px"),
             ("proj_lower_px", "lower half RMS px"), ("trim_err", "trim error"),
             ("drift_0.15_cm", "drift 0.15 m/s cm"), ("drift_0.25_cm", "drift 0.25 m/s cm"),
-            ("drift_0.40_cm", "drift 0.4 m/s cm"), ("wall_s", "wall s")]
+            ("drift_0.40_cm", "drift 0.4 m/s cm"), ("ed_pct", "Ed error %"),
+            ("wheelbase_pct", "wheelbase error %"), ("wall_s", "wall s")]
     print("| real-time factor | succeeded | " + " | ".join(k[1] for k in keys) + " |")
     print("|---" * (len(keys) + 2) + "|")
     for rtf in a.rtf:

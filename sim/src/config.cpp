@@ -178,6 +178,9 @@ RobotConfig readRobot(YamlMap& m) {
   c.focus_ring_sharp_turns =
       inRange(cam, "focus_ring_sharp_turns", c.focus_ring_sharp_turns, -5.0, 5.0);
   c.defocus_px_per_turn = inRange(cam, "defocus_px_per_turn", c.defocus_px_per_turn, 0.0, 50.0);
+  c.focus_distance_m = inRange(cam, "focus_distance_m", c.focus_distance_m, 0.0, 100.0);
+  c.defocus_px_per_diopter =
+      inRange(cam, "defocus_px_per_diopter", c.defocus_px_per_diopter, 0.0, 10.0);
   YamlMap nominal = cam.map("nominal");
   c.nominal = readIntrinsics(nominal, false, c.truth.width, c.truth.height);
   nominal.finish();

@@ -480,22 +480,98 @@ cv::Mat Renderer::renderRolling(const std::vector<std::vector<Pose2>>& bands,
     for (const Pose2& p : poses) renderPose(p, still, false, false, accumulator_.ptr<float>(), v0, v1);
     if (!still) accumulator_.rowRange(v0, v1) *= 1.0 / static_cast<double>(poses.size());
   }
+  if (depthOfField()) traceDepths(bands.back().back());
   return finish(accumulator_, rng);
 }
 
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) {
   if (poses.empty()) throw InputError("renderer: no pose to render");
-  return finish(renderNoiseless(poses), rng);
+  const uint64_t reused = still_reused_;
+  const cv::Mat& linear = renderNoiseless(poses);
+  // A reused still keeps its distances.
+  if (depthOfField() && (still_reused_ == reused || depth_grid_.empty())) traceDepths(poses.back());
+  return finish(linear, rng);
+}
+
+bool Renderer::depthOfField() const {
+  return config_.focus_distance_m > 0 && config_.defocus_px_per_diopter > 0;
+}
+
+namespace {
+constexpr int kDepthStep = 8;  ///< the depth grid's spacing [px]: the blur varies smoothly
+}  // namespace
+
+void Renderer::traceDepths(const Pose2& pose) {
+  const Eigen::Vector3d origin = cameraInWorld(config_, pose).translation();
+  tracer_->prepare(origin, pose.yaw_rad, view_.get());
+  const double c = std::cos(pose.yaw_rad), s = std::sin(pose.yaw_rad);
+  const int cols = width_ / kDepthStep + 1, rows = height_ / kDepthStep + 1;
+  depth_grid_.create(rows, cols, CV_32F);
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < cols; ++i) {
+      const size_t k = static_cast<size_t>(j * kDepthStep * (width_ + 1) + i * kDepthStep);
+      float& out = depth_grid_.at<float>(j, i);
+      out = std::numeric_limits<float>::infinity();
+      if (!corner_valid_[k]) continue;
+      const Eigen::Vector3f& d = corner_dirs_[k];
+      const Eigen::Vector3d dw(c * d.x() - s * d.y(), s * d.x() + c * d.y(), d.z());
+      Rgb color;
+      int id;
+      double distance;
+      tracer_->trace(*view_, origin, dw, corner_bins_[k], &color, &id, &distance);
+      if (std::isfinite(distance) && distance > 0) out = static_cast<float>(distance);
+    }
+  }
+}
+
+const cv::Mat& Renderer::defocus(const cv::Mat& linear) {
+  if (!depthOfField()) {
+    if (defocus_px_ == 0) return linear;
+    cv::GaussianBlur(linear, defocused_, cv::Size(), std::abs(defocus_px_));
+    return defocused_;
+  }
+  // Each point's blur from its distance in dioptres off the focus, plus the ring's.
+  cv::Mat sigma(depth_grid_.size(), CV_32F);
+  double max_sigma = 0;
+  const double focus_diopters = 1.0 / config_.focus_distance_m;
+  for (int j = 0; j < sigma.rows; ++j) {
+    for (int i = 0; i < sigma.cols; ++i) {
+      const float d = depth_grid_.at<float>(j, i);
+      const double diopters = std::isfinite(d) ? 1.0 / d : 0.0;
+      const double px =
+          std::abs(defocus_px_ + config_.defocus_px_per_diopter * (diopters - focus_diopters));
+      sigma.at<float>(j, i) = static_cast<float>(px);
+      max_sigma = std::max(max_sigma, px);
+    }
+  }
+  if (max_sigma < 0.2) return linear;
+  cv::resize(sigma, sigma_map_, linear.size(), 0, 0, cv::INTER_LINEAR);
+  // Blurred levels half a pixel of sigma apart; each pixel between the two around its own sigma.
+  const int n = std::min(12, 1 + static_cast<int>(std::ceil(max_sigma / 0.5)));
+  levels_.resize(static_cast<size_t>(n));
+  levels_[0] = linear;
+  for (int k = 1; k < n; ++k) {
+    cv::GaussianBlur(linear, levels_[static_cast<size_t>(k)], cv::Size(), max_sigma * k / (n - 1));
+  }
+  defocused_.create(linear.size(), CV_32FC3);
+  for (int v = 0; v < linear.rows; ++v) {
+    const float* sig = sigma_map_.ptr<float>(v);
+    auto* out = defocused_.ptr<cv::Vec3f>(v);
+    for (int u = 0; u < linear.cols; ++u) {
+      const double t = std::clamp(sig[u] / max_sigma, 0.0, 1.0) * (n - 1);
+      const int lo = std::min(n - 2, static_cast<int>(t));
+      const float f = static_cast<float>(t - lo);
+      const cv::Vec3f& a = levels_[static_cast<size_t>(lo)].at<cv::Vec3f>(v, u);
+      const cv::Vec3f& b = levels_[static_cast<size_t>(lo + 1)].at<cv::Vec3f>(v, u);
+      out[u] = a + (b - a) * f;
+    }
+  }
+  return defocused_;
 }
 
 cv::Mat Renderer::finish(const cv::Mat& linear, std::mt19937_64& rng) {
-  const cv::Mat* noiseless = &linear;
-  if (defocus_px_ > 0) {
-    // The lens out of focus blurs the light before the sensor adds its noise.
-    cv::GaussianBlur(*noiseless, defocused_, cv::Size(), defocus_px_);
-    noiseless = &defocused_;
-  }
-  const cv::Mat& acc = *noiseless;
+  // The lens out of focus blurs the light before the sensor adds its noise.
+  const cv::Mat& acc = defocus(linear);
   // The frame's brightness (auto-exposure and light that vary), drawn only when it varies.
   double gain = 1.0;
   if (config_.brightness_sigma > 0) {

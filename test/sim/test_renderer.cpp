@@ -284,6 +284,53 @@ TEST(SimRenderer, RollingShutterSeesEachRowAtItsReadoutTime) {
   EXPECT_GT(rms_end, 3.0);
 }
 
+// Depth of field (robot YAML camera.focus_distance_m, defocus_px_per_diopter): a surface at
+// distance d is blurred by k·|1/d − 1/focus|. Board 2 seen from where it is in focus and from 0.4 m
+// farther back: over the board, the frame matches the sharp image blurred by the sigma the board's
+// true distance gives better than by half or one and a half times it (and in focus, the sharp
+// image itself).
+TEST(SimRenderer, DepthOfFieldBlursBySurfaceDistance) {
+  sim::RobotConfig robot = defaultRobot();
+  robot.camera.noise_sigma = 0;
+  const sim::WorldConfig world = defaultWorld();
+  const sim::ChessboardConfig& b = world.chessboards[2];
+  const std::vector<Eigen::Vector3d> corners = sim::chessboardCorners(b);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& c : corners) centre += c / static_cast<double>(corners.size());
+  const sim::Pose2 near{0, 0, 0}, far{-0.4, 0, 0};
+  auto distance = [&](const sim::Pose2& p) {
+    return (sim::cameraInWorld(robot.camera, p).translation() - centre).norm();
+  };
+  robot.camera.focus_distance_m = distance(near);
+  robot.camera.defocus_px_per_diopter = 2.0;
+  auto mismatch = [&](const sim::Pose2& pose, double sigma_px) {
+    sim::Renderer renderer(robot.camera, world, optionsOf(robot.camera));
+    std::mt19937_64 rng(1);
+    cv::Mat frame;
+    renderer.render({pose}, rng).convertTo(frame, CV_32FC3);
+    cv::Mat sharp = renderer.renderExact(pose), expected = sharp;
+    if (sigma_px > 0) cv::GaussianBlur(sharp, expected, cv::Size(), sigma_px);
+    cv::Rect box = cv::boundingRect(projectTruth(robot.camera, pose, corners));
+    box = cv::Rect(box.x + 3, box.y + 3, box.width - 6, box.height - 6);
+    return cv::mean(cv::abs(frame(box) - expected(box)))[0];
+  };
+  const double far_sigma =
+      2.0 * std::abs(1.0 / distance(far) - 1.0 / robot.camera.focus_distance_m);
+  std::cout << "board at " << distance(near) << " m (in focus) and " << distance(far)
+            << " m: sigma " << far_sigma << " px" << std::endl;
+  ASSERT_GT(far_sigma, 0.8);
+  const double near_sharp = mismatch(near, 0), near_blurred = mismatch(near, far_sigma);
+  const double far_true = mismatch(far, far_sigma), far_half = mismatch(far, 0.5 * far_sigma),
+               far_more = mismatch(far, 1.5 * far_sigma), far_sharp = mismatch(far, 0);
+  std::cout << "in focus: against sharp " << near_sharp << ", blurred " << near_blurred
+            << "; farther: against its sigma " << far_true << ", half " << far_half
+            << ", 1.5 times " << far_more << ", sharp " << far_sharp << std::endl;
+  EXPECT_LT(near_sharp, 0.5 * near_blurred);
+  EXPECT_LT(far_true, far_half);
+  EXPECT_LT(far_true, far_more);
+  EXPECT_LT(far_true, 0.5 * far_sharp);
+}
+
 TEST(SimRenderer, FloorTagIsDetectedWithItsIdAndTruePose) {
   const sim::RobotConfig robot = defaultRobot();
   const sim::WorldConfig world = defaultWorld();

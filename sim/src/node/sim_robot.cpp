@@ -200,7 +200,7 @@ bool SimRobot::beginFrame(double capture_s) {
     nh_.getParamCached("sim_lens/focus_ring_turns", ring);
     if (std::isfinite(ring)) {
       renderer_->setDefocusPx(robot_.camera.defocus_px_per_turn *
-                              std::abs(ring - robot_.camera.focus_ring_sharp_turns));
+                              (ring - robot_.camera.focus_ring_sharp_turns));
     }
     return true;
   }

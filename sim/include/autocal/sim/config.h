@@ -46,6 +46,14 @@ struct CameraConfig {
   /// unless sim_node is told otherwise at run time (<veh>/sim_lens/focus_ring_turns).
   double focus_ring_sharp_turns = 0.0;
   double defocus_px_per_turn = 4.0;
+  /// Depth of field: with the ring at its sharp position the lens is sharp at focus_distance_m,
+  /// and a surface at distance d is blurred by defocus_px_per_diopter·|1/d − 1/focus_distance_m|
+  /// [px, a Gaussian's sigma] (a thin lens's blur circle grows with the distance from the focus
+  /// in dioptres). Turning the ring moves the focus: the blur is
+  /// |defocus_px_per_turn·(ring − focus_ring_sharp_turns) + defocus_px_per_diopter·(1/d − 1/focus)|.
+  /// 0 (either): the blur does not depend on the distance.
+  double focus_distance_m = 0.0;
+  double defocus_px_per_diopter = 0.0;
 };
 
 struct RangeSensorConfig {

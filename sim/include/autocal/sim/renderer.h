@@ -91,8 +91,11 @@ class Renderer {
   /// Rows per band of renderRolling (the last band may have fewer).
   int rollingBandRows() const;
 
-  /// The lens's defocus from now on: a Gaussian blur of this sigma [px] before the noise (0: sharp).
-  void setDefocusPx(double sigma_px) { defocus_px_ = sigma_px > 0 ? sigma_px : 0.0; }
+  /// The focus ring's defocus from now on [px]: a Gaussian blur of this sigma before the noise (0:
+  /// sharp). With the camera's depth of field (CameraConfig::focus_distance_m and
+  /// defocus_px_per_diopter) it adds to each surface's own blur, signed (the ring turned one way
+  /// or the other moves the focus nearer or farther).
+  void setDefocusPx(double sigma_px) { defocus_px_ = sigma_px; }
 
   /// The noiseless linear image (CV_32FC3, BGR, 0..255) of one pose; for tests.
   cv::Mat renderExact(const Pose2& pose);
@@ -119,6 +122,11 @@ class Renderer {
                   float* accumulate, int v_begin, int v_end);
   /// The frame from its noiseless linear image: defocus, brightness, vignetting, noise, 8 bits.
   cv::Mat finish(const cv::Mat& linear, std::mt19937_64& rng);
+  bool depthOfField() const;
+  /// With a depth of field: each grid point's distance to the scene from this pose (depth_grid_).
+  void traceDepths(const Pose2& pose);
+  /// The defocused image: blurred by the ring alone, or per pixel by its distance's blur.
+  const cv::Mat& defocus(const cv::Mat& linear);
   /// The noiseless linear image (CV_32FC3) of these poses' average: a buffer of this renderer
   /// (the last still frame's image, or the blur accumulator), valid until the next call.
   const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses);
@@ -156,6 +164,10 @@ class Renderer {
   uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
   double defocus_px_ = 0;
   cv::Mat defocused_;  // the defocused noiseless image (a buffer kept between frames)
+  /// Depth of field: the scene's distance [m] through every kDepthStep-th pixel corner (rows by
+  /// columns; +inf: nothing hit), of the last pose rendered anew, and the blurred levels.
+  cv::Mat depth_grid_, sigma_map_;
+  std::vector<cv::Mat> levels_;
   /// The same camera at half resolution, for blurred frames of many poses (null: not used).
   std::unique_ptr<Renderer> half_;
   cv::Mat upscaled_;

@@ -187,6 +187,11 @@ void SimNode::publishStatus(double achieved_rtf) {
                    {"yaw_rad", p.yaw_rad}});
 }
 
+namespace {
+/// How far behind real time [wall s] the simulator may fall before it stops catching up.
+constexpr double kMaxLagS = 0.1;
+}  // namespace
+
 void SimNode::run() {
   const double dt = robots_.front()->simulation().timestep_s();
   Schedule clock{1.0 / options_.clock_rate_hz, 0.0}, status{1.0 / options_.status_rate_hz, 0.0};
@@ -210,6 +215,12 @@ void SimNode::run() {
   }
   const ros::WallTime run_start = ros::WallTime::now();
   ros::WallTime rtf_mark = run_start;
+  // Real time: simulated time t is due at pace_wall + (t - pace_sim) / real_time_factor. A
+  // simulator that fell behind (a machine too slow for the factor) does not catch up in a burst,
+  // which no robot's clock does (a node would see minutes of simulated time pass in a second, its
+  // readings not yet delivered): it starts again from where it is, slower than asked.
+  ros::WallTime pace_wall = run_start;
+  double pace_sim = 0;
   while (ros_layer::ok()) {
     waitForControllers();
     for (auto& r : robots_) r->step();
@@ -242,9 +253,15 @@ void SimNode::run() {
     ros::spinOnce();
     if (options_.duration_s > 0 && t >= options_.duration_s) break;
     if (options_.real_time_factor > 0) {
-      const ros::WallTime target = run_start + ros::WallDuration(t / options_.real_time_factor);
+      const ros::WallTime target =
+          pace_wall + ros::WallDuration((t - pace_sim) / options_.real_time_factor);
       const ros::WallTime now = ros::WallTime::now();
-      if (target > now) (target - now).sleep();
+      if (target > now) {
+        (target - now).sleep();
+      } else if ((now - target).toSec() > kMaxLagS) {
+        pace_wall = now;
+        pace_sim = t;
+      }
     }
   }
   for (auto& r : robots_) r->stop();

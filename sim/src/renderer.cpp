@@ -481,16 +481,24 @@ cv::Mat Renderer::renderRolling(const std::vector<std::vector<Pose2>>& bands,
     if (!still) accumulator_.rowRange(v0, v1) *= 1.0 / static_cast<double>(poses.size());
   }
   if (depthOfField()) traceDepths(bands.back().back());
-  return finish(accumulator_, rng);
+  return finish(accumulator_, false, rng);
 }
 
 cv::Mat Renderer::render(const std::vector<Pose2>& poses, std::mt19937_64& rng) {
   if (poses.empty()) throw InputError("renderer: no pose to render");
-  const uint64_t reused = still_reused_;
+  const uint64_t before = still_reused_;
   const cv::Mat& linear = renderNoiseless(poses);
-  // A reused still keeps its distances.
-  if (depthOfField() && (still_reused_ == reused || depth_grid_.empty())) traceDepths(poses.back());
-  return finish(linear, rng);
+  const bool reused = still_reused_ != before;
+  if (depthOfField()) {
+    // A reused still keeps its own distances (a blurred frame may have traced others since).
+    if (reused && !still_depth_grid_.empty()) {
+      still_depth_grid_.copyTo(depth_grid_);
+    } else {
+      traceDepths(poses.back());
+      if (poses.size() == 1) depth_grid_.copyTo(still_depth_grid_);
+    }
+  }
+  return finish(linear, reused, rng);
 }
 
 bool Renderer::depthOfField() const {
@@ -524,10 +532,17 @@ void Renderer::traceDepths(const Pose2& pose) {
   }
 }
 
-const cv::Mat& Renderer::defocus(const cv::Mat& linear) {
+const cv::Mat& Renderer::defocus(const cv::Mat& linear, bool same_scene) {
+  // A reused still with the ring where it was: the blur of the last frame.
+  if (same_scene && defocused_valid_ && defocused_for_px_ == defocus_px_ &&
+      defocused_from_ == linear.data) {
+    return defocused_;
+  }
+  defocused_valid_ = false;
   if (!depthOfField()) {
     if (defocus_px_ == 0) return linear;
     cv::GaussianBlur(linear, defocused_, cv::Size(), std::abs(defocus_px_));
+    defocused_valid_ = true, defocused_for_px_ = defocus_px_, defocused_from_ = linear.data;
     return defocused_;
   }
   // Each point's blur from its distance in dioptres off the focus, plus the ring's.
@@ -566,12 +581,13 @@ const cv::Mat& Renderer::defocus(const cv::Mat& linear) {
       out[u] = a + (b - a) * f;
     }
   }
+  defocused_valid_ = true, defocused_for_px_ = defocus_px_, defocused_from_ = linear.data;
   return defocused_;
 }
 
-cv::Mat Renderer::finish(const cv::Mat& linear, std::mt19937_64& rng) {
+cv::Mat Renderer::finish(const cv::Mat& linear, bool same_scene, std::mt19937_64& rng) {
   // The lens out of focus blurs the light before the sensor adds its noise.
-  const cv::Mat& acc = defocus(linear);
+  const cv::Mat& acc = defocus(linear, same_scene);
   // The frame's brightness (auto-exposure and light that vary), drawn only when it varies.
   double gain = 1.0;
   if (config_.brightness_sigma > 0) {

@@ -572,6 +572,26 @@ TEST(SimRendererStillReuse, ReusedStillFrameEqualsAFreshRender) {
 
 // The noise of consecutive frames of a robot standing still is fresh: two frames differ by two
 // independent noise draws (standard deviation sqrt(2) sigma), not by zero.
+// With a depth of field, a reused still frame keeps its own blur, also after a blurred frame in
+// between: it equals the same still rendered by a fresh renderer.
+TEST(SimRendererStillReuse, ReusedStillKeepsItsDepthOfFieldBlur) {
+  sim::RobotConfig robot = defaultRobot();
+  robot.camera.noise_sigma = 0;
+  robot.camera.focus_distance_m = 0.4;
+  robot.camera.defocus_px_per_diopter = 2.0;
+  sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  std::mt19937_64 rng(1);
+  renderer.render({{0, 0, 0}}, rng);
+  std::vector<sim::Pose2> turning;
+  for (int k = 0; k < 8; ++k) turning.push_back({0, 0, 0.004 * k});
+  renderer.render(turning, rng);
+  const cv::Mat again = renderer.render({{0, 0, 0}}, rng);
+  EXPECT_EQ(renderer.stillFramesReused(), 1u);
+  sim::Renderer fresh(robot.camera, defaultWorld(), optionsOf(robot.camera));
+  const cv::Mat expected = fresh.render({{0, 0, 0}}, rng);
+  EXPECT_EQ(cv::norm(again, expected, cv::NORM_INF), 0.0);
+}
+
 TEST(SimRendererStillReuse, ConsecutiveStillFramesHaveFreshNoise) {
   const sim::RobotConfig robot = defaultRobot();
   sim::Renderer renderer(robot.camera, defaultWorld(), optionsOf(robot.camera));

@@ -121,12 +121,13 @@ class Renderer {
   void renderPose(const Pose2& pose, bool antialias, bool sum_blocks, bool store,
                   float* accumulate, int v_begin, int v_end);
   /// The frame from its noiseless linear image: defocus, brightness, vignetting, noise, 8 bits.
-  cv::Mat finish(const cv::Mat& linear, std::mt19937_64& rng);
+  /// same_scene: the noiseless image is the last still's, reused (its defocus may be too).
+  cv::Mat finish(const cv::Mat& linear, bool same_scene, std::mt19937_64& rng);
   bool depthOfField() const;
   /// With a depth of field: each grid point's distance to the scene from this pose (depth_grid_).
   void traceDepths(const Pose2& pose);
   /// The defocused image: blurred by the ring alone, or per pixel by its distance's blur.
-  const cv::Mat& defocus(const cv::Mat& linear);
+  const cv::Mat& defocus(const cv::Mat& linear, bool same_scene);
   /// The noiseless linear image (CV_32FC3) of these poses' average: a buffer of this renderer
   /// (the last still frame's image, or the blur accumulator), valid until the next call.
   const cv::Mat& renderNoiseless(const std::vector<Pose2>& poses);
@@ -164,9 +165,12 @@ class Renderer {
   uint64_t still_rendered_ = 0, still_reused_ = 0, blurred_half_res_ = 0;
   double defocus_px_ = 0;
   cv::Mat defocused_;  // the defocused noiseless image (a buffer kept between frames)
+  bool defocused_valid_ = false;  // defocused_ holds the last frame's blur ...
+  double defocused_for_px_ = 0;   // ... with the ring at this defocus ...
+  const uchar* defocused_from_ = nullptr;  // ... of this noiseless buffer
   /// Depth of field: the scene's distance [m] through every kDepthStep-th pixel corner (rows by
   /// columns; +inf: nothing hit), of the last pose rendered anew, and the blurred levels.
-  cv::Mat depth_grid_, sigma_map_;
+  cv::Mat depth_grid_, sigma_map_, still_depth_grid_;  // the last still's own distances
   std::vector<cv::Mat> levels_;
   /// The same camera at half resolution, for blurred frames of many poses (null: not used).
   std::unique_ptr<Renderer> half_;

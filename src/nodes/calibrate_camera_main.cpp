@@ -272,9 +272,8 @@ int run(const Args& args) {
   std::printf("image: %dx%d\n", in.imageSize().width, in.imageSize().height);
   const auto sd = [&](size_t i) { return i < result.std_devs.size() ? result.std_devs[i] : 0.0; };
   if (result.std_devs.empty()) {
-    // OpenCV's fisheye calibration reports no standard deviations.
-    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations for %s)\n", in.fx,
-                in.fy, in.cx, in.cy, distortionModelName(in.distortion_model).c_str());
+    std::printf("fx %.3f  fy %.3f  cx %.3f  cy %.3f px (no standard deviations)\n", in.fx, in.fy,
+                in.cx, in.cy);
   } else {
     std::printf("fx %.3f (+-%.3f)  fy %.3f (+-%.3f)  cx %.3f (+-%.3f)  cy %.3f (+-%.3f) px\n",
                 in.fx, sd(0), in.fy, sd(1), in.cx, sd(2), in.cy, sd(3));

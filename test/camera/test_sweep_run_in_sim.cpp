@@ -165,6 +165,16 @@ TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
   EXPECT_EQ(d.unmapped, 0);
   EXPECT_LE(d.rms_px, 0.5);
   EXPECT_LE(d.worst_px, 1.5);
+  // The equidistant fit knows how sure it is: its predicted uncertainty and the cross-validation
+  // of its halves are there for the gate to judge, and the true error is of the predicted size.
+  const camera::ProjectionUncertainty& u = r.result.uncertainty;
+  ASSERT_TRUE(u.valid);
+  std::cout << "predicted uncertainty RMS " << u.rms_px << " px, worst " << u.worst_px
+            << " px, lower half worst " << u.lower_half_worst_px << " px; halves ratio "
+            << r.result.halves.ratio << "\n";
+  EXPECT_TRUE(r.result.halves.valid);
+  EXPECT_LE(d.rms_px, 3 * u.rms_px);
+  EXPECT_LE(d.worst_px, 3 * u.worst_px);
 
   camera::CalibrationOptions pinned = config.calibration;
   pinned.fallback_models.clear();

@@ -38,8 +38,7 @@ struct CalibrationOptions {
   /// kSignificance: start from all terms and drop the last group while none of its terms is
   /// significant (|value| < min_term_significance · its standard deviation); 2–3 fits, fast.
   /// kHoldout: the simplest set whose cross-validated held-out RMS is within selection_margin of
-  /// the best; slower (a fit per fold and set). Equidistant always uses kHoldout (OpenCV reports
-  /// no standard deviations for it).
+  /// the best; slower (a fit per fold and set).
   enum class Selection { kSignificance, kHoldout };
   Selection selection = Selection::kSignificance;
   double min_term_significance = 3.0;

@@ -19,7 +19,7 @@ namespace autocal {
 namespace camera {
 
 struct ProjectionUncertainty {
-  bool valid = false;      ///< false: the model or the fit gives none (equidistant)
+  bool valid = false;      ///< false: the fit gives none (no free parameter, too few corners)
   int cols = 0, rows = 0;  ///< the grid over the image (cell centres)
   /// Per grid cell, row-major: the standard deviation of the projection in its worst direction
   /// [px] (the square root of the covariance's larger eigenvalue); NaN where the model maps no ray
@@ -32,12 +32,29 @@ struct ProjectionUncertainty {
   double lower_half_worst_px = 0;  ///< the largest sigma_px in the lower half (the floor)
 };
 
+/// The covariance of a fit's free intrinsics (see the file's comment), with the corner noise it
+/// was scaled by.
+struct IntrinsicsCovariance {
+  bool valid = false;  ///< false: no free parameter, too few residuals, or mismatched inputs
+  std::vector<int> free;  ///< the indices among [fx fy cx cy, terms] of cov's rows
+  cv::Mat cov;            ///< free.size() square [px^2 and the terms' units]
+  double corner_noise_px = 0;
+  /// The standard deviation of every parameter of [fx fy cx cy, terms]: 0 for a fixed one.
+  std::vector<double> std_devs(size_t parameters) const;
+};
+
+/// The covariance of `intrinsics` fitted to `object_points` seen at `image_points` from the
+/// poses `rvecs`, `tvecs`, over the parameters `fitted` says were free.
+IntrinsicsCovariance intrinsicsCovariance(
+    const std::vector<std::vector<cv::Point3f>>& object_points,
+    const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
+    const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& intrinsics,
+    const std::vector<bool>& fitted);
+
 /// The projection uncertainty of `intrinsics`, fitted to `object_points` seen at
 /// `image_points` from the poses `rvecs`, `tvecs` (the fit's, one per view). `fitted[i]` says
 /// whether parameter i of [fx fy cx cy, the distortion terms in their order] was free in the fit
-/// (a fixed one has no uncertainty). Every model's projection is supported; calibrate() gives
-/// none for its equidistant fits (over synthetic refits their true errors were 30 times the
-/// propagated uncertainty: not honest, cause not yet established).
+/// (a fixed one has no uncertainty). Every model's projection is supported.
 ProjectionUncertainty projectionUncertainty(
     const std::vector<std::vector<cv::Point3f>>& object_points,
     const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,

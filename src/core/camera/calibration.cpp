@@ -89,6 +89,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       opencv_default_criteria
           ? cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, DBL_EPSILON)
           : cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-7);
+  std::vector<bool> fisheye_fitted;  // the free parameters of a fisheye fit
   try {
     if (isFisheye(model)) {
       if (d.empty()) d = cv::Mat::zeros(4, 1, CV_64F);
@@ -99,6 +100,8 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       for (const auto& i : img) img_d.emplace_back(i.begin(), i.end());
       f.rms_px =
           cv::fisheye::calibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+      fisheye_fitted = {true, true, true, true, true, true,
+                        !(flags & cv::fisheye::CALIB_FIX_K3), !(flags & cv::fisheye::CALIB_FIX_K4)};
     } else {
       cv::Mat std_int, std_ext, per_view;
       f.rms_px = cv::calibrateCamera(obj, img, size, k, d, f.rvecs, f.tvecs, std_int, std_ext,
@@ -116,6 +119,13 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
   f.intrinsics.distortion_coefficients.assign(distortionCount(model), 0.0);
   for (int i = 0; i < std::min<int>(d.cols, static_cast<int>(distortionCount(model))); ++i) {
     f.intrinsics.distortion_coefficients[static_cast<size_t>(i)] = d.at<double>(i);
+  }
+  if (!fisheye_fitted.empty()) {
+    // OpenCV's fisheye calibration reports no standard deviations: the covariance at its
+    // result gives them (over repeated synthetic fits, its results scatter as that covariance
+    // says: CameraUncertainty.FisheyePredictionMatchesRepeatedCalibrations).
+    f.std_devs = intrinsicsCovariance(obj, img, f.rvecs, f.tvecs, f.intrinsics, fisheye_fitted)
+                     .std_devs(fisheye_fitted.size());
   }
   const CameraIntrinsics& in = f.intrinsics;
   if (!std::isfinite(in.fx) || !std::isfinite(in.fy) || !std::isfinite(in.cx) ||
@@ -469,8 +479,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   };
   std::optional<Fit> final_fit;
   if (options.select_distortion_terms &&
-      options.selection == CalibrationOptions::Selection::kSignificance &&
-      !isFisheye(options.model)) {
+      options.selection == CalibrationOptions::Selection::kSignificance) {
     // Drop the most complex group of terms while none of its terms stands out of its own
     // uncertainty: such a term fits the noise of these views, not the lens (ROS's fits
     // swing by 15 px in fx between folds of 13 photos).
@@ -547,11 +556,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     result.per_view_rms_px.push_back(
         rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
   }
-  // The free parameters: those with a standard deviation (OpenCV gives a fixed one 0). The
-  // fisheye fit reports none and gets none: over repeated synthetic fits its true errors were 30
-  // times the uncertainty propagated at its result (OpenCV's fisheye optimiser, which alternates
-  // intrinsics and poses, may stop short of the least-squares optimum the propagation assumes;
-  // not yet established).
+  // The free parameters: those with a standard deviation (a fixed one has 0).
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
   result.uncertainty = projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted);
@@ -620,8 +625,7 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
                       fmt(" (> %.0f %% of the image size)", 100 * gate.max_principal_offset_ratio));
   }
   if (!(r.intrinsics.fx > 0 && r.intrinsics.fy > 0)) reasons.push_back("focal length not positive");
-  // The whole image, from the uncertainty and the cross-validation (none for an equidistant fit:
-  // those two criteria are then not judged).
+  // The whole image, from the uncertainty and the cross-validation.
   const ProjectionUncertainty& u = r.uncertainty;
   if (u.valid && u.unmapped > 0) {
     reasons.push_back("the fitted model maps no ray to " + std::to_string(u.unmapped) + " of the " +

@@ -145,43 +145,94 @@ std::vector<double> projectionDifferences(const CameraIntrinsics& a, const Camer
   return out;
 }
 
-ProjectionUncertainty projectionUncertainty(
-    const std::vector<std::vector<cv::Point3f>>& object_points,
-    const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
-    const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& in, const std::vector<bool>& fitted,
-    int cols, int rows) {
-  ProjectionUncertainty out;
-  const std::vector<int> free = freeParameters(fitted);
-  const int p = static_cast<int>(free.size());
-  if (p == 0 || cols <= 0 || rows <= 0 || object_points.empty() ||
-      object_points.size() != image_points.size() || rvecs.size() != object_points.size() ||
-      tvecs.size() != object_points.size())
-    return out;
-  // J^T J over the intrinsics and each view's pose, with the poses eliminated as they are found
-  // (a Schur complement): U - sum_v W_v V_v^-1 W_v^T is the intrinsics' information.
-  cv::Mat information = cv::Mat::zeros(p, p, CV_64F);
+namespace {
+
+/// Whether the inputs describe one fit: as many views of points as of corners and of poses.
+bool consistent(const std::vector<std::vector<cv::Point3f>>& object_points,
+                const std::vector<std::vector<cv::Point2f>>& image_points,
+                const std::vector<cv::Mat>& rvecs, const std::vector<cv::Mat>& tvecs) {
+  if (object_points.empty() || object_points.size() != image_points.size() ||
+      rvecs.size() != object_points.size() || tvecs.size() != object_points.size())
+    return false;
+  for (size_t v = 0; v < object_points.size(); ++v)
+    if (object_points[v].size() != image_points[v].size()) return false;
+  return true;
+}
+
+/// The intrinsics' information at the fit: J^T J over the intrinsics and each view's pose, the
+/// poses eliminated as they are found (a Schur complement: U - sum_v W_v V_v^-1 W_v^T), with the
+/// sum of the squared residuals and their count.
+struct Information {
+  cv::Mat intrinsics;
   double squared = 0;
   int residuals = 0;
+};
+Information information(const std::vector<std::vector<cv::Point3f>>& object_points,
+                        const std::vector<std::vector<cv::Point2f>>& image_points,
+                        const std::vector<cv::Mat>& rvecs, const std::vector<cv::Mat>& tvecs,
+                        const CameraIntrinsics& in, const std::vector<int>& free) {
+  const int p = static_cast<int>(free.size());
+  Information n;
+  n.intrinsics = cv::Mat::zeros(p, p, CV_64F);
   for (size_t v = 0; v < object_points.size(); ++v) {
     const std::vector<cv::Point3d> obj(object_points[v].begin(), object_points[v].end());
     const Projection proj = projectWithJacobians(obj, rvecs[v], tvecs[v], in);
     for (size_t i = 0; i < proj.points.size(); ++i) {
       const double dx = proj.points[i].x - image_points[v][i].x;
       const double dy = proj.points[i].y - image_points[v][i].y;
-      squared += dx * dx + dy * dy;
+      n.squared += dx * dx + dy * dy;
     }
-    residuals += 2 * static_cast<int>(proj.points.size());
+    n.residuals += 2 * static_cast<int>(proj.points.size());
     const cv::Mat a = intrinsicColumns(proj.intrinsics, free);
     const cv::Mat& b = proj.pose;
     const cv::Mat w = a.t() * b;
-    const cv::Mat pose = b.t() * b;
-    information += a.t() * a - w * pose.inv(cv::DECOMP_SVD) * w.t();
+    n.intrinsics += a.t() * a - w * (b.t() * b).inv(cv::DECOMP_SVD) * w.t();
   }
-  const int dof = residuals - p - 6 * static_cast<int>(object_points.size());
+  return n;
+}
+
+}  // namespace
+
+std::vector<double> IntrinsicsCovariance::std_devs(size_t parameters) const {
+  std::vector<double> out(parameters, 0.0);
+  for (size_t k = 0; k < free.size(); ++k)
+    if (free[k] < static_cast<int>(parameters))
+      out[static_cast<size_t>(free[k])] =
+          std::sqrt(std::max(0.0, cov.at<double>(static_cast<int>(k), static_cast<int>(k))));
+  return out;
+}
+
+IntrinsicsCovariance intrinsicsCovariance(
+    const std::vector<std::vector<cv::Point3f>>& object_points,
+    const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
+    const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& in,
+    const std::vector<bool>& fitted) {
+  IntrinsicsCovariance out;
+  out.free = freeParameters(fitted);
+  const int p = static_cast<int>(out.free.size());
+  if (p == 0 || !consistent(object_points, image_points, rvecs, tvecs)) return out;
+  const Information n = information(object_points, image_points, rvecs, tvecs, in, out.free);
+  const int dof = n.residuals - p - 6 * static_cast<int>(object_points.size());
   if (dof <= 0) return out;
-  const double variance = squared / dof;
-  const cv::Mat cov = information.inv(cv::DECOMP_SVD) * variance;
+  const double variance = n.squared / dof;
+  out.cov = n.intrinsics.inv(cv::DECOMP_SVD) * variance;
   out.corner_noise_px = std::sqrt(variance);
+  out.valid = true;
+  return out;
+}
+
+ProjectionUncertainty projectionUncertainty(
+    const std::vector<std::vector<cv::Point3f>>& object_points,
+    const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
+    const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& in, const std::vector<bool>& fitted,
+    int cols, int rows) {
+  ProjectionUncertainty out;
+  if (cols <= 0 || rows <= 0) return out;
+  const IntrinsicsCovariance c =
+      intrinsicsCovariance(object_points, image_points, rvecs, tvecs, in, fitted);
+  if (!c.valid) return out;
+  const cv::Mat& cov = c.cov;
+  out.corner_noise_px = c.corner_noise_px;
   out.cols = cols;
   out.rows = rows;
   double sum = 0;

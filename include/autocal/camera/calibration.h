@@ -24,10 +24,17 @@ using autocal::parseDistortionModel;
 
 struct CalibrationOptions {
   DistortionModel model = DistortionModel::kPlumbBob;
-  /// Lens models tried in this order when the result with `model` fails its quality gate
-  /// (calibrateChoosingModel): the first one the gate passes is written. Empty: `model` is pinned.
+  /// Lens models fitted after `model` (calibrateChoosingModel), in order of preference. Empty:
+  /// `model` is pinned.
   std::vector<DistortionModel> fallback_models{DistortionModel::kRationalPolynomial,
                                                DistortionModel::kEquidistant};
+  /// Of the models the gate passes, those whose all_corners_rms_px is within this fraction of the
+  /// lowest explain the corners equally well [1].
+  double model_rms_margin = 0.05;
+  /// Of those, a model later in the order replaces an earlier one when its projection
+  /// uncertainty (RMS over the image) is lower by more than this fraction: it is the one the
+  /// views pin down where no board was seen [1].
+  double model_uncertainty_margin = 0.2;
   /// Fewer views than this are refused.
   int min_views = 6;
   /// Views are "all alike" when the spread of every one of X, Y, size, skew and tilt is below this.
@@ -76,12 +83,16 @@ struct DroppedView {
 struct CalibrationResult {
   CameraIntrinsics intrinsics;
   double rms_px = 0;                       ///< over all used corners
+  /// Over every corner of the used views, the dropped ones too, each view at its fitted pose: how
+  /// well the model explains the corners, outliers included (a model that does not fit the lens
+  /// drops the corners it cannot explain, which lowers rms_px but not this) [px].
+  double all_corners_rms_px = 0;
   std::vector<int> used_views;             ///< indices into the input views
   std::vector<double> per_view_rms_px;     ///< parallel to used_views
   std::vector<DroppedView> dropped_views;  ///< outliers, with the reason
   int dropped_corners = 0;
   /// Standard deviations [fx fy cx cy, then the distortion terms in their order]; fixed terms 0.
-  /// Empty for equidistant (OpenCV does not report them).
+  /// For equidistant they come from the fit's covariance (OpenCV does not report them).
   std::vector<double> std_devs;
   /// Which distortion terms were fitted, e.g. "k1 k2 p1 p2 (k3 fixed at 0)".
   std::string fitted_terms;
@@ -89,12 +100,12 @@ struct CalibrationResult {
   double selection_holdout_rms_px = 0;
   /// Why the terms were chosen, e.g. "k3 = 0.16 +- 0.13 (t 1.3 < 3): fixed".
   std::string selection_reason;
-  /// How sure the result is of its projection over the whole image (not valid for equidistant).
+  /// How sure the result is of its projection over the whole image.
   ProjectionUncertainty uncertainty;
   /// The fits of the two halves of the used views compared (not valid under 8 views).
   HalvesCrossValidation halves;
-  /// The lens models the gate refused before this one (calibrateChoosingModel), each with its
-  /// reasons: "plumb_bob: ..."; empty when the first model passed.
+  /// The lens models tried before this one and not chosen (calibrateChoosingModel), each with its
+  /// reasons: "plumb_bob: ..."; empty when the first model was chosen.
   std::string refused_models;
 };
 
@@ -148,17 +159,26 @@ struct QualityGateOptions {
 std::vector<std::string> checkQuality(const CalibrationResult& result,
                                       const QualityGateOptions& gate);
 
-/// The lens model that fits: options.model, then each of options.fallback_models in order, fitted
-/// to the same views and judged by the same gate (over the whole image too: the uncertainty, the
-/// unmapped cells, the halves' cross-validation); the first one the gate passes is chosen.
+/// The lens model that fits: options.model and each of options.fallback_models, fitted to the same
+/// views and judged by the same gate (over the whole image too: the uncertainty, the unmapped
+/// cells, the halves' cross-validation). Of the models the gate passes, those that explain the
+/// corners as well as the best (CalibrationOptions::model_rms_margin) are eligible; the first
+/// eligible one is chosen unless a later one is much surer of its projection
+/// (model_uncertainty_margin). A model that passes the gate may still not fit the lens where no
+/// view shows it: the simulator's fisheye lens, seen over most of the image, passed the gate with
+/// rational_polynomial, its corners explained as well as by equidistant, its uncertainty twice
+/// as large, and 22 px off at the image's corner.
 struct ModelChoice {
   struct Refusal {
     DistortionModel model = DistortionModel::kPlumbBob;
-    std::vector<std::string> reasons;  ///< the gate's, or why the fit failed
+    /// The gate's, why the fit failed, or why a model the gate passed was set aside.
+    std::vector<std::string> reasons;
   };
   bool passed = false;
   CalibrationResult result;      ///< the chosen model's (when passed)
-  std::vector<Refusal> refused;  ///< the models refused, in the order tried
+  /// The models tried before the chosen one and not chosen, in order (all of them when none
+  /// passed).
+  std::vector<Refusal> refused;
   /// The refusals as text: with one model its reasons joined by `separator`; with several, each
   /// "<model>: <reasons>" joined by `separator`.
   std::string refusals(const std::string& separator) const;

@@ -552,10 +552,17 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   result.std_devs = f.std_devs;
   result.fitted_terms = chosen.name;
   result.used_views = active;
+  const Points3 every_corner = board_spec.points();
+  double all_squared = 0;
   for (size_t a = 0; a < active.size(); ++a) {
     result.per_view_rms_px.push_back(
         rms(project(obj[a], f.rvecs[a], f.tvecs[a], f.intrinsics), img[a]));
+    const double all = rms(project(every_corner, f.rvecs[a], f.tvecs[a], f.intrinsics),
+                           views[static_cast<size_t>(active[a])]);
+    all_squared += all * all;
   }
+  result.all_corners_rms_px =
+      active.empty() ? 0 : std::sqrt(all_squared / static_cast<double>(active.size()));
   // The free parameters: those with a standard deviation (a fixed one has 0).
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
@@ -673,6 +680,9 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
   for (const DistortionModel m : options.fallback_models)
     if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(m);
   ModelChoice choice;
+  std::vector<CalibrationResult> passed;  // parallel to passed_at: the models the gate passes
+  std::vector<size_t> passed_at;
+  std::vector<std::vector<std::string>> reasons(models.size());
   for (size_t k = 0; k < models.size(); ++k) {
     CalibrationOptions o = options;
     o.model = models[k];
@@ -681,23 +691,62 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
       r = calibrate(views, image_size, board, o);
     } catch (const CalibrationError& e) {
       if (k == 0) throw;  // the views themselves cannot determine a model
-      choice.refused.push_back({models[k], {std::string("the fit failed: ") + e.what()}});
+      reasons[k] = {std::string("the fit failed: ") + e.what()};
       continue;
     }
-    std::vector<std::string> reasons = checkQuality(r, gate);
-    if (reasons.empty()) {
-      choice.passed = true;
-      choice.result = std::move(r);
-      for (const ModelChoice::Refusal& f : choice.refused) {
-        choice.result.refused_models += (choice.result.refused_models.empty() ? "" : " | ") +
-                                        distortionModelName(f.model) + ": ";
-        for (size_t j = 0; j < f.reasons.size(); ++j)
-          choice.result.refused_models += (j ? "; " : "") + f.reasons[j];
-      }
-      return choice;
+    reasons[k] = checkQuality(r, gate);
+    if (reasons[k].empty()) {
+      passed.push_back(std::move(r));
+      passed_at.push_back(k);
+    } else if (k == 0) {
+      choice.result = std::move(r);  // for a caller that reports the refused fit
     }
-    choice.refused.push_back({models[k], std::move(reasons)});
-    if (k == 0) choice.result = std::move(r);  // for a caller that reports the refused fit
+  }
+  size_t chosen = models.size();
+  if (!passed.empty()) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const CalibrationResult& r : passed) best = std::min(best, r.all_corners_rms_px);
+    const auto eligible = [&](size_t j) {
+      return passed[j].all_corners_rms_px <= best * (1 + options.model_rms_margin);
+    };
+    const auto sureness = [&](size_t j) {
+      return passed[j].uncertainty.valid ? passed[j].uncertainty.rms_px
+                                         : std::numeric_limits<double>::infinity();
+    };
+    size_t i = 0;
+    while (!eligible(i)) ++i;
+    for (size_t j = i + 1; j < passed.size(); ++j)
+      if (eligible(j) && sureness(j) < sureness(i) * (1 - options.model_uncertainty_margin)) i = j;
+    chosen = passed_at[i];
+    const std::string with = " with " + distortionModelName(models[chosen]);
+    for (size_t j = 0; j < i; ++j) {
+      reasons[passed_at[j]] = {
+          eligible(j)
+              ? fmt("the gate passed it and it explains the corners as well (%.4f px RMS over all "
+                    "of them, outliers included, against %.4f px",
+                    passed[j].all_corners_rms_px, passed[i].all_corners_rms_px) +
+                    with +
+                    fmt("), but the views pin it down less where no board was seen: projection "
+                        "uncertainty %.3f px RMS over the image against %.3f px",
+                        sureness(j), sureness(i)) +
+                    with + ": it does not fit this lens there"
+              : fmt("the gate passed it, but it explains the corners worse: %.4f px RMS over all "
+                    "of them (outliers included) against %.4f px",
+                    passed[j].all_corners_rms_px, passed[i].all_corners_rms_px) +
+                    with + ": it does not fit this lens"};
+    }
+    choice.passed = true;
+    choice.result = std::move(passed[i]);
+  }
+  for (size_t k = 0; k < std::min(chosen, models.size()); ++k)
+    choice.refused.push_back({models[k], reasons[k]});
+  if (choice.passed) {
+    for (const ModelChoice::Refusal& f : choice.refused) {
+      choice.result.refused_models += (choice.result.refused_models.empty() ? "" : " | ") +
+                                      distortionModelName(f.model) + ": ";
+      for (size_t j = 0; j < f.reasons.size(); ++j)
+        choice.result.refused_models += (j ? "; " : "") + f.reasons[j];
+    }
   }
   return choice;
 }

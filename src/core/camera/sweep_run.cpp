@@ -312,7 +312,7 @@ double SweepRun::progress() const {
     case SweepRunStage::kWaitForData:
       return 0;
     case SweepRunStage::kProbe:
-      // The probe of the four wheel directions takes about as long as the sweep's first leg.
+      // The probe of the four wheel directions takes about as long as the sweep.
       return kProbeShare * probe_.probed() / 4.0;
     case SweepRunStage::kSweep: {
       // The sweep ends when the coverage suffices, in its second or third leg (the first legs

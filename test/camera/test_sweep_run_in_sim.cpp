@@ -142,7 +142,9 @@ TEST(SweepRunInSim, DefaultRobotAndWorld) {
 // over the whole image against the simulator's true lens, and the views pin down the lower half.
 // Its rational_polynomial fit passes the gate too, explaining the corners as well, but its
 // uncertainty is twice as large and it is pixels off at the image's corners: the stage writes the
-// model the views pin down (without that rule the rational fit would be written).
+// model the views pin down (without that rule the rational fit would be written). Listing only the
+// models Debian's image_geometry reads, the rational fit is refused for its distance from the
+// equidistant one, with where it holds.
 TEST(SweepRunInSim, FloorBoardsPinTheWholeImage) {
   const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
@@ -187,13 +189,30 @@ TEST(SweepRunInSim, FloorBoardsPinTheWholeImage) {
             << first.worst_px << " px\n";
   EXPECT_EQ(c.result.intrinsics.distortion_model, DistortionModel::kRationalPolynomial);
   EXPECT_GT(first.worst_px, 3 * d.worst_px);
+
+  // A consumer that reads only plumb_bob and rational_polynomial (Debian's image_geometry) lists
+  // those two: the rational fit is then refused for how far it projects from the equidistant one,
+  // and the refusal says so and where it holds; the truth confirms it is that far off.
+  camera::CalibrationOptions image_geometry = config.calibration;
+  image_geometry.fallback_models = {DistortionModel::kRationalPolynomial};
+  const camera::ModelChoice refused = camera::calibrateChoosingModel(
+      r.sharp, r.image_size, r.board, image_geometry, config.quality_gate);
+  const std::string why = refused.refusals("; ");
+  std::cout << "listing plumb_bob and rational_polynomial only: " << why << "\n";
+  EXPECT_FALSE(refused.passed);
+  EXPECT_NE(why.find("rational_polynomial: equidistant, which these views fit best"),
+            std::string::npos);
+  EXPECT_NE(why.find("px of the image centre"), std::string::npos);
+  EXPECT_GT(sim::projectionDifference(robot.camera.truth, refused.result.intrinsics).worst_px,
+            config.quality_gate.max_model_difference_px);
 }
 
 // A fisheye lens (equidistant, as a Duckiebot's wide-angle lens is): the sweep's plumb_bob fit is
 // refused over the whole image, and so is rational_polynomial (each maps no ray to cells at the
 // image's corners); equidistant, the next model the config lists, is written, and it is right over
 // the whole image against the simulator's true lens. Pinned to plumb_bob, the same views are
-// refused: no file that is pixels off is written.
+// refused, and the refusal says which model fits and how far plumb_bob is from it: no file that
+// is pixels off is written.
 TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
   const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "fleet/robot_fisheye.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
@@ -233,6 +252,9 @@ TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
   const camera::ModelChoice c =
       camera::calibrateChoosingModel(r.sharp, r.image_size, r.board, pinned, config.quality_gate);
   EXPECT_FALSE(c.passed);
+  // The refusal says which model fits and how far the pinned one is from it.
+  EXPECT_NE(c.refusals("; ").find("equidistant (not listed) fits these views"), std::string::npos)
+      << c.refusals("; ");
 }
 
 /// The replay fed what a recording of the live run holds, in the order it holds it.

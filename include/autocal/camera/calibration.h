@@ -153,6 +153,9 @@ struct QualityGateOptions {
   /// few views is too weak a fit for its uncertainty to mean much (left01-09: 4.0 from 4 and 5).
   double max_halves_ratio = 4.0;
   int min_views_per_half = 10;
+  /// How far the written model may project from the model the views fit best, where that one is
+  /// not listed (calibrateChoosingModel), anywhere over the image grid [px].
+  double max_model_difference_px = 1.0;
 };
 
 /// Reasons the result may not be written; empty when it passes.
@@ -167,7 +170,10 @@ std::vector<std::string> checkQuality(const CalibrationResult& result,
 /// (model_uncertainty_margin). A model that passes the gate may still not fit the lens where no
 /// view shows it: the simulator's fisheye lens, seen over most of the image, passed the gate with
 /// rational_polynomial, its corners explained as well as by equidistant, its uncertainty twice
-/// as large, and 22 px off at the image's corner.
+/// as large, and 22 px off at the image's corner. The models not listed are fitted too, as
+/// references: when one of them is the best by the same rule, the chosen model is refused where
+/// it projects more than QualityGateOptions::max_model_difference_px from it anywhere over the
+/// image, and the refusal says within which radius of the image centre it stays within that.
 struct ModelChoice {
   struct Refusal {
     DistortionModel model = DistortionModel::kPlumbBob;

@@ -672,74 +672,166 @@ std::string ModelChoice::refusals(const std::string& separator) const {
   return out;
 }
 
+namespace {
+
+/// How far `fit` projects from `reference` over the image grid, and the radius around the image
+/// centre within which it stays within `limit_px` of it.
+struct ModelDifference {
+  double rms_px = 0, worst_px = 0;
+  double valid_radius_px = 0;  ///< the nearest grid cell beyond the limit (or none unmapped)
+  double valid_fraction = 0;   ///< of the grid's cells within that radius
+};
+ModelDifference modelDifference(const CameraIntrinsics& fit, const CameraIntrinsics& reference,
+                                double limit_px) {
+  const int cols = 16, rows = 12;
+  const std::vector<double> d = projectionDifferences(reference, fit, cols, rows);
+  ModelDifference out;
+  out.valid_radius_px = std::hypot(fit.width, fit.height);
+  std::vector<double> radius;
+  double sum = 0;
+  int n = 0;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double e = d[static_cast<size_t>(r * cols + c)];
+      const double from_centre = std::hypot((c + 0.5) * fit.width / cols - 0.5 * fit.width,
+                                            (r + 0.5) * fit.height / rows - 0.5 * fit.height);
+      radius.push_back(from_centre);
+      if (!(e <= limit_px)) out.valid_radius_px = std::min(out.valid_radius_px, from_centre);
+      if (!std::isfinite(e)) {
+        out.worst_px = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      sum += e * e;
+      ++n;
+      out.worst_px = std::max(out.worst_px, e);
+    }
+  }
+  out.rms_px = n ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+  out.valid_fraction =
+      static_cast<double>(std::count_if(radius.begin(), radius.end(),
+                                        [&](double r) { return r < out.valid_radius_px; })) /
+      static_cast<double>(radius.size());
+  return out;
+}
+
+}  // namespace
+
 ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,
                                    const cv::Size& image_size, const BoardSpec& board,
                                    const CalibrationOptions& options,
                                    const QualityGateOptions& gate) {
+  // The listed models in their order, then the others as references: a listed model may be
+  // written only where it projects as the model that fits best does.
   std::vector<DistortionModel> models{options.model};
   for (const DistortionModel m : options.fallback_models)
     if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(m);
-  ModelChoice choice;
-  std::vector<CalibrationResult> passed;  // parallel to passed_at: the models the gate passes
-  std::vector<size_t> passed_at;
+  const size_t listed = models.size();
+  for (const DistortionModel m : {DistortionModel::kPlumbBob, DistortionModel::kRationalPolynomial,
+                                  DistortionModel::kEquidistant})
+    if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(m);
+  std::vector<CalibrationResult> result(models.size());
+  std::vector<bool> fitted(models.size(), false);
   std::vector<std::vector<std::string>> reasons(models.size());
   for (size_t k = 0; k < models.size(); ++k) {
     CalibrationOptions o = options;
     o.model = models[k];
-    CalibrationResult r;
     try {
-      r = calibrate(views, image_size, board, o);
+      result[k] = calibrate(views, image_size, board, o);
+      fitted[k] = true;
     } catch (const CalibrationError& e) {
       if (k == 0) throw;  // the views themselves cannot determine a model
       reasons[k] = {std::string("the fit failed: ") + e.what()};
       continue;
     }
-    reasons[k] = checkQuality(r, gate);
-    if (reasons[k].empty()) {
-      passed.push_back(std::move(r));
-      passed_at.push_back(k);
-    } else if (k == 0) {
-      choice.result = std::move(r);  // for a caller that reports the refused fit
-    }
+    reasons[k] = checkQuality(result[k], gate);
   }
-  size_t chosen = models.size();
-  if (!passed.empty()) {
-    double best = std::numeric_limits<double>::infinity();
-    for (const CalibrationResult& r : passed) best = std::min(best, r.all_corners_rms_px);
-    const auto eligible = [&](size_t j) {
-      return passed[j].all_corners_rms_px <= best * (1 + options.model_rms_margin);
-    };
-    const auto sureness = [&](size_t j) {
-      return passed[j].uncertainty.valid ? passed[j].uncertainty.rms_px
-                                         : std::numeric_limits<double>::infinity();
-    };
-    size_t i = 0;
-    while (!eligible(i)) ++i;
-    for (size_t j = i + 1; j < passed.size(); ++j)
-      if (eligible(j) && sureness(j) < sureness(i) * (1 - options.model_uncertainty_margin)) i = j;
-    chosen = passed_at[i];
+  const auto passes = [&](size_t k) { return fitted[k] && reasons[k].empty(); };
+  const auto sureness = [&](size_t k) {
+    return result[k].uncertainty.valid ? result[k].uncertainty.rms_px
+                                       : std::numeric_limits<double>::infinity();
+  };
+  // The best of models [0, end): of those the gate passes and that explain the corners within
+  // model_rms_margin as well as the best of them, the first unless a later one is much surer.
+  const auto best = [&](size_t end, double* lowest_rms) {
+    double lowest = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < end; ++k)
+      if (passes(k)) lowest = std::min(lowest, result[k].all_corners_rms_px);
+    *lowest_rms = lowest;
+    size_t chosen = end;
+    for (size_t k = 0; k < end; ++k) {
+      if (!passes(k) || !(result[k].all_corners_rms_px <= lowest * (1 + options.model_rms_margin)))
+        continue;
+      if (chosen == end ||
+          sureness(k) < sureness(chosen) * (1 - options.model_uncertainty_margin))
+        chosen = k;
+    }
+    return chosen;
+  };
+  double lowest_listed = 0, lowest_all = 0;
+  const size_t chosen = best(listed, &lowest_listed);
+  const size_t reference = best(models.size(), &lowest_all);
+  ModelChoice choice;
+  if (chosen < listed) {
     const std::string with = " with " + distortionModelName(models[chosen]);
-    for (size_t j = 0; j < i; ++j) {
-      reasons[passed_at[j]] = {
-          eligible(j)
+    for (size_t j = 0; j < chosen; ++j) {
+      if (!passes(j)) continue;
+      const bool eligible = result[j].all_corners_rms_px <= lowest_listed * (1 + options.model_rms_margin);
+      reasons[j] = {
+          eligible
               ? fmt("the gate passed it and it explains the corners as well (%.4f px RMS over all "
                     "of them, outliers included, against %.4f px",
-                    passed[j].all_corners_rms_px, passed[i].all_corners_rms_px) +
+                    result[j].all_corners_rms_px, result[chosen].all_corners_rms_px) +
                     with +
                     fmt("), but the views pin it down less where no board was seen: projection "
                         "uncertainty %.3f px RMS over the image against %.3f px",
-                        sureness(j), sureness(i)) +
+                        sureness(j), sureness(chosen)) +
                     with + ": it does not fit this lens there"
               : fmt("the gate passed it, but it explains the corners worse: %.4f px RMS over all "
                     "of them (outliers included) against %.4f px",
-                    passed[j].all_corners_rms_px, passed[i].all_corners_rms_px) +
+                    result[j].all_corners_rms_px, result[chosen].all_corners_rms_px) +
                     with + ": it does not fit this lens"};
     }
     choice.passed = true;
-    choice.result = std::move(passed[i]);
+    if (reference != chosen && reference < models.size()) {
+      // A model not listed fits best: the chosen one is written only where it projects as that
+      // one does over the whole image.
+      const ModelDifference d = modelDifference(result[chosen].intrinsics,
+                                                result[reference].intrinsics,
+                                                gate.max_model_difference_px);
+      if (!(d.worst_px <= gate.max_model_difference_px)) {
+        choice.passed = false;
+        reasons[chosen] = {
+            distortionModelName(models[reference]) +
+            fmt(", which these views fit best (not listed), projects %.2f px RMS and up to %.1f "
+                "px away from it over the image (limit %.2f px); ",
+                d.rms_px, d.worst_px, gate.max_model_difference_px) +
+            fmt("it is within that limit only within %.0f px of the image centre (%.0f %% of "
+                "the image): ",
+                d.valid_radius_px, 100 * d.valid_fraction) +
+            distortionModelName(models[chosen]) +
+            " does not fit this lens there; list " + distortionModelName(models[reference]) +
+            " in fallback_models if the file's consumers read it"};
+      }
+    }
+  } else if (reference < models.size()) {
+    // None listed passes: say which model would, and how far the first listed one is from it.
+    for (size_t k = 0; k < listed; ++k) {
+      if (!fitted[k]) continue;
+      const ModelDifference d = modelDifference(result[k].intrinsics, result[reference].intrinsics,
+                                                gate.max_model_difference_px);
+      reasons[k].push_back(
+          distortionModelName(models[reference]) + " (not listed) fits these views" +
+          fmt(": this fit projects %.2f px RMS and up to %.1f px away from it", d.rms_px,
+              d.worst_px) +
+          fmt(", within %.2f px only within %.0f px of the image centre",
+              gate.max_model_difference_px, d.valid_radius_px));
+    }
   }
-  for (size_t k = 0; k < std::min(chosen, models.size()); ++k)
-    choice.refused.push_back({models[k], reasons[k]});
+  // The refusals: the models before the chosen one, and the chosen one itself when it is refused
+  // for its difference from the model that fits best; every listed model when none passed.
+  const size_t shown = chosen < listed ? chosen + (choice.passed ? 0 : 1) : listed;
+  for (size_t k = 0; k < shown; ++k) choice.refused.push_back({models[k], reasons[k]});
+  choice.result = std::move(result[choice.passed || chosen < listed ? chosen : 0]);
   if (choice.passed) {
     for (const ModelChoice::Refusal& f : choice.refused) {
       choice.result.refused_models += (choice.result.refused_models.empty() ? "" : " | ") +

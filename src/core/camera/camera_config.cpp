@@ -44,6 +44,9 @@ void CameraCalibrationConfig::validate() const {
   checkConfig(calibration.min_term_significance > 0, "calibration.min_term_significance",
               "must be > 0");
   checkConfig(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
+  checkConfig(calibration.model_rms_margin >= 0, "calibration.model_rms_margin", "must be >= 0");
+  checkConfig(calibration.model_uncertainty_margin >= 0 && calibration.model_uncertainty_margin <= 1,
+              "calibration.model_uncertainty_margin", "must be in [0, 1]");
   checkConfig(calibration.max_selection_folds >= 2, "calibration.max_selection_folds",
               "must be >= 2");
   checkConfig(calibration.outlier_view_factor > 1, "calibration.outlier_view_factor",
@@ -64,6 +67,8 @@ void CameraCalibrationConfig::validate() const {
   checkConfig(quality_gate.max_lower_half_uncertainty_px > 0,
               "quality_gate.max_lower_half_uncertainty_px", "must be > 0 [px]");
   checkConfig(quality_gate.max_halves_ratio > 0, "quality_gate.max_halves_ratio", "must be > 0");
+  checkConfig(quality_gate.max_model_difference_px > 0, "quality_gate.max_model_difference_px",
+              "must be > 0");
   checkConfig(quality_gate.min_views_per_half >= 4, "quality_gate.min_views_per_half",
               "must be >= 4");
 }
@@ -111,6 +116,10 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
       for (const std::string& m : k.required<std::vector<std::string>>("fallback_models"))
         c.calibration.fallback_models.push_back(parseDistortionModel(m));
     }
+    c.calibration.model_rms_margin =
+        k.optional<double>("model_rms_margin", c.calibration.model_rms_margin);
+    c.calibration.model_uncertainty_margin =
+        k.optional<double>("model_uncertainty_margin", c.calibration.model_uncertainty_margin);
     c.calibration.min_views = k.required<int>("min_views");
     c.calibration.min_param_spread = k.required<double>("min_param_spread");
     c.calibration.select_distortion_terms = k.required<bool>("select_distortion_terms");
@@ -147,6 +156,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
         q.optional<double>("max_halves_ratio", c.quality_gate.max_halves_ratio);
     c.quality_gate.min_views_per_half =
         q.optional<int>("min_views_per_half", c.quality_gate.min_views_per_half);
+    c.quality_gate.max_model_difference_px =
+        q.optional<double>("max_model_difference_px", c.quality_gate.max_model_difference_px);
     q.finish();
   }
   root.finish();

@@ -37,6 +37,10 @@ struct SweepOptions {
   /// without sufficient coverage. The leg from the start board to the first extreme board does not
   /// count; a first pass that counts the boards does.
   int max_passes = 3;
+  /// Steps before sufficient coverage may end the sweep: a frame holding a standing board and one
+  /// on the floor can satisfy the coverage measures within a few steps, from views of one part of
+  /// the area.
+  int min_steps = 20;
 
   // --- geometry ---------------------------------------------------------------------------------
   /// Horizontal field of view of the camera [rad], nominal (2·atan(width / (2·fx)) from

@@ -40,6 +40,7 @@ void SweepOptions::validate() const {
   checkConfig(board_count == 0 || start_board < board_count, "start_board",
               "must be below board_count (boards are numbered from 0)");
   checkConfig(max_passes >= 1, "max_passes", "must be >= 1");
+  checkConfig(min_steps >= 0, "min_steps", "must be >= 0");
   checkConfig(std::isfinite(camera_hfov_rad) && camera_hfov_rad > 0 && camera_hfov_rad < M_PI,
               "camera_hfov_rad", "must be in (0, pi)");
   checkConfig(std::isfinite(full_turn_rad) && full_turn_rad > 0, "full_turn_rad", "must be > 0");
@@ -358,7 +359,11 @@ SweepDecision SweepController::decide(const SweepObservation& observation) {
     leg_start_pending_ = false;
   }
 
-  if (observation.coverage_sufficient) {
+  // Not before min_steps: a frame that holds a standing board and one lying on the floor can
+  // satisfy the coverage measures within a few steps, from views of one corner of the area (the
+  // wide lens's sweep ended after 7 steps and, through ROS, left the lower half of the image
+  // 2.3 px uncertain).
+  if (observation.coverage_sufficient && steps_ >= options_.min_steps) {
     return done("coverage sufficient after " + std::to_string(steps_) + " steps, pass " +
                 std::to_string(pass_));
   }

@@ -88,6 +88,7 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
     throw ConfigError(std::string("~pivot: ") + e.what());
   }
   p.get("max_passes", s.max_passes);
+  p.get("min_steps", s.min_steps);
   p.get("camera_hfov_rad", s.camera_hfov_rad);
   p.get("max_gap_rad", s.max_gap_rad);
   p.get("full_turn_rad", s.full_turn_rad);

@@ -10,6 +10,7 @@ target_sources(autocal_camera PRIVATE
   src/core/camera/sweep_controller.cpp
   src/core/camera/min_duty_probe.cpp
   src/core/camera/sweep_run.cpp
+  src/core/camera/view_targets.cpp
   src/core/camera/sweep_replay.cpp
   src/core/camera/debug_image.cpp
   src/core/camera/focus_meter.cpp)

@@ -6,7 +6,8 @@ Draws N robots (seeded) from sim/config/robot.yaml (the realistic default robot)
 Duckietown's plumb_bob calibrations see as 317-361; cx 300-336, cy 210-256; k1 -0.01..0.05, k2
 -0.03..0.01), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
 backward gains, a gain drift, gearbox backlash and wheel slip within their documented ranges, and the transport of
-robot.yaml. Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH
+robot.yaml; and a light gradient across the room (world YAML `light_gradient`, up to 0.1 per metre
+along each axis) in world_full.yaml (world.yaml with --no-odometry). Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH
 stages; --no-odometry: the first two) at each real-time factor given (1: a robot's own computer; 3: one
 three times slower), on its own master. From the simulator's truth (compare_camera,
 compare_wheels, the odometry file against the robot's radii and wheelbase) it reports per run the
@@ -68,6 +69,16 @@ def draw_robot(base, rng):
     return r
 
 
+def draw_world(base, rng):
+    """The whole run's world (base: world_full.yaml or world.yaml) lit unevenly: a light gradient
+    of up to 0.1 per metre along each axis (about 1.4 between the ends of world_full's room and
+    corridor)."""
+    w = yaml.safe_load(yaml.safe_dump(base))
+    w["light_gradient"] = {"x_per_m": round(rng.uniform(-0.1, 0.1), 3),
+                           "y_per_m": round(rng.uniform(-0.1, 0.1), 3)}
+    return w
+
+
 def figures(pattern, text):
     m = re.search(pattern, text, re.M)
     return [float(x) for x in m.groups()] if m else None
@@ -114,10 +125,10 @@ def judge(robot_file, root, veh):
     return out
 
 
-def run_one(robot_file, veh, rtf, root, port, odometry):
+def run_one(robot_file, world_file, veh, rtf, root, port, odometry):
     env = dict(os.environ, ROS_MASTER_URI="http://localhost:%d" % port)
     cmd = ["rosrun", "autocal", "calibrate_sim", "veh:=" + veh, "robot_config:=" + robot_file,
-           "real_time_factor:=%g" % rtf, "calibration_root:=" + root,
+           "world_config:=" + world_file, "real_time_factor:=%g" % rtf, "calibration_root:=" + root,
            "odometry:=" + ("true" if odometry else "false")]
     start = time.time()
     with open(os.path.join(root + ".log"), "w") as log:
@@ -152,18 +163,25 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     with open(os.path.join(PKG, "sim", "config", "robot.yaml")) as f:
         base = yaml.safe_load(f)
+    world_name = "world_full.yaml" if a.odometry else "world.yaml"
+    with open(os.path.join(PKG, "sim", "config", world_name)) as f:
+        base_world = yaml.safe_load(f)
     rows = []
     for i in range(1, a.robots + 1):
         robot = draw_robot(base, random.Random(a.seed * 1000 + i))
         robot_file = os.path.join(a.out, "robot%d.yaml" % i)
         with open(robot_file, "w") as f:
             yaml.safe_dump(robot, f, sort_keys=False)
+        world_file = os.path.join(a.out, "world%d.yaml" % i)
+        with open(world_file, "w") as f:
+            yaml.safe_dump(draw_world(base_world, random.Random(a.seed * 1000 + 500 + i)), f,
+                           sort_keys=False)
         for rtf in a.rtf:
             veh = "robot%d" % i
             root = os.path.join(a.out, "rtf%g" % rtf, veh)
             subprocess.run(["rm", "-rf", root])
             os.makedirs(root)
-            r = run_one(robot_file, veh, rtf, root, 11700 + i, a.odometry)
+            r = run_one(robot_file, world_file, veh, rtf, root, 11700 + i, a.odometry)
             r.update(judge(robot_file, root, veh), robot=veh, rtf=rtf)
             rows.append(r)
             print("%s rtf %g: %s %s (%.0f s) %s" % (veh, rtf, r["result"], r["failure"],
@@ -171,10 +189,11 @@ def main():
                                                                    if k.endswith(("pct", "px", "err", "cm"))}),
                   file=sys.stderr, flush=True)
     print("## Robustness: the whole calibration in robot mode\n")
-    print("%d robots drawn from `sim/config/robot.yaml` with seed %d (`/usr/bin/python3 "
+    print("%d robots drawn from `sim/config/robot.yaml`, each in `%s` with a light gradient, with "
+          "seed %d (`/usr/bin/python3 "
           "scripts/robustness.py --robots %d --seed %d`); per real-time factor: runs that "
-          "succeeded, then median / 95th percentile / worst.\n" % (a.robots, a.seed, a.robots,
-                                                                  a.seed))
+          "succeeded, then median / 95th percentile / worst.\n" % (a.robots, world_name, a.seed,
+                                                                  a.robots, a.seed))
     keys = [("fx_pct", "fx error %"), ("fy_pct", "fy error %"),
             ("proj_rms_px", "projection RMS px"), ("proj_worst_px", "projection worst px"),
             ("proj_lower_px", "lower half RMS px"), ("trim_err", "trim error"),

@@ -224,6 +224,14 @@ WorldConfig readWorld(YamlMap& m) {
     start.finish();
   }
   w.floor_color = readColor(m, "floor_color", w.floor_color);
+  if (m.has("light_gradient")) {
+    YamlMap l = m.map("light_gradient");
+    w.light_gradient.x_per_m = l.optional<double>("x_per_m", 0.0);
+    w.light_gradient.y_per_m = l.optional<double>("y_per_m", 0.0);
+    if (!(std::abs(w.light_gradient.x_per_m) <= 0.5)) l.fail("x_per_m", "must be within +-0.5 [1/m]");
+    if (!(std::abs(w.light_gradient.y_per_m) <= 0.5)) l.fail("y_per_m", "must be within +-0.5 [1/m]");
+    l.finish();
+  }
   for (YamlMap& b : m.optionalMapList("chessboards")) {
     ChessboardConfig c;
     readBoard(b, &c);

@@ -158,6 +158,10 @@ class RayTracer {
   inline Rgb wallColor(const VerticalQuad& q, double s, double z, int* part) const;
   /// Colour of this side of a quad at (s, z); *part: the board's cell or the wall's poster (0: none).
   inline Rgb quadColor(const VerticalQuad& q, Surface surface, double s, double z, int* part) const;
+  /// `c` in the room's light at the world point (x, y).
+  inline Rgb lit(const Rgb& c, double x, double y) const {
+    return world_.light_gradient.even() ? c : scaled(c, static_cast<float>(world_.light_gradient.at(x, y)));
+  }
 
   WorldConfig world_;
   Rgb floor_color_;
@@ -276,12 +280,12 @@ inline void RayTracer::trace(const TraceView& view, const Eigen::Vector3d& o, co
   } else if (hit == -2) {
     bool marked = false;
     const double x = o.x() + best * d.x(), y = o.y() + best * d.y();
-    *color = floorColor(x, y, &marked);
+    *color = lit(floorColor(x, y, &marked), x, y);
     *id = marked ? (1 | kMarked) : 1;
     if (plane) *plane = Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y));
   } else if (hit <= -3) {
     const HorizontalRect& r = tops_[static_cast<size_t>(-3 - hit)];
-    *color = r.color;
+    *color = lit(r.color, o.x() + best * d.x(), o.y() + best * d.y());
     *id = r.id;
     if (plane) {
       *plane = Eigen::Vector2f(static_cast<float>(o.x() + best * d.x()), static_cast<float>(o.y() + best * d.y()));
@@ -293,7 +297,8 @@ inline void RayTracer::trace(const TraceView& view, const Eigen::Vector3d& o, co
     const double z = o.z() + best * d.z();
     if (plane) *plane = Eigen::Vector2f(static_cast<float>(hit_s), static_cast<float>(z));
     int part = 0;
-    *color = quadColor(q, surface, hit_s, z, &part);
+    const Eigen::Vector2d at = q.p0 + hit_s * q.dir;
+    *color = lit(quadColor(q, surface, hit_s, z, &part), at.x(), at.y());
     *id = q.id + (part << 16);
   }
 }
@@ -319,15 +324,17 @@ inline Rgb RayTracer::quadColor(const VerticalQuad& q, Surface surface, double s
 inline Rgb RayTracer::colorOn(int surface, const Eigen::Vector2f& at, const Eigen::Vector3d& o) const {
   if (surface == 1) {
     bool marked = false;
-    return floorColor(at.x(), at.y(), &marked);
+    return lit(floorColor(at.x(), at.y(), &marked), at.x(), at.y());
   }
   const int top = top_of_id_[static_cast<size_t>(surface)];
-  if (top >= 0) return tops_[static_cast<size_t>(top)].color;
+  if (top >= 0) return lit(tops_[static_cast<size_t>(top)].color, at.x(), at.y());
   const VerticalQuad& q = quads_[static_cast<size_t>(quad_of_id_[static_cast<size_t>(surface)])];
   // The camera sees the quad's front when it stands on the side its front normal points to.
   const bool front = (o.x() - q.p0.x()) * q.front.x() + (o.y() - q.p0.y()) * q.front.y() > 0;
   int part = 0;
-  return quadColor(q, front ? q.front_surface : q.back_surface, at.x(), at.y(), &part);
+  const Eigen::Vector2d p = q.p0 + static_cast<double>(at.x()) * q.dir;
+  return lit(quadColor(q, front ? q.front_surface : q.back_surface, at.x(), at.y(), &part), p.x(),
+             p.y());
 }
 
 }  // namespace tracing

@@ -1,5 +1,7 @@
-// camera::SweepRun's failure paths without a simulator: silent inputs, a dead wheel.
+// camera::SweepRun's failure paths without a simulator: silent inputs, a dead wheel; the targets
+// of more views where the projection is least sure.
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "autocal/camera/sweep_run.h"
 #include "autocal/errors.h"
@@ -120,6 +122,84 @@ TEST(SweepRunOptions, ValidateNamesTheBadKey) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("max_step_duty"), std::string::npos) << e.what();
   }
+  o = SweepRunOptions();
+  o.refine_tolerance_rad = 0;
+  EXPECT_THROW(o.validate(), ConfigError);
+}
+
+/// A pinhole camera, 640 x 480, f 300; a view at heading 0.5 of three corners, one high and two
+/// low, and one at heading -0.3 of one low corner.
+struct TargetScene {
+  CameraIntrinsics fit;
+  std::vector<CalibrationView> views;
+  std::map<int, double> heading_by_frame;
+  ProjectionUncertainty uncertainty;
+  TargetScene() {
+    fit.fx = fit.fy = 300;
+    fit.cx = 320;
+    fit.cy = 240;
+    fit.distortion_coefficients = {0, 0, 0, 0, 0};
+    CalibrationView v;
+    v.corners = {{330, 60}, {420, 400}, {600, 420}};
+    v.frame_index = 4;
+    views.push_back(v);
+    heading_by_frame[4] = 0.5;
+    v.corners = {{600, 420}};
+    v.frame_index = 7;
+    views.push_back(v);
+    heading_by_frame[7] = -0.3;
+    // Even, except one cell in the lower left and one in the upper right.
+    uncertainty.valid = true;
+    uncertainty.cols = 16;
+    uncertainty.rows = 12;
+    uncertainty.sigma_px.assign(16 * 12, 0.1);
+    uncertainty.sigma_px[10 * 16 + 0] = 3.0;  // centre (20, 420)
+    uncertainty.sigma_px[1 * 16 + 15] = 2.0;  // centre (620, 60)
+  }
+};
+
+/// Elevation of a pixel of TargetScene's camera [rad].
+double elevation(double u, double v) {
+  return std::atan2(-(v - 240) / 300, std::hypot((u - 320) / 300, 1.0));
+}
+
+TEST(ViewTargets, TurnsACornerOfTheCellsElevationOntoTheLeastSureCellOfEachHalf) {
+  const TargetScene s;
+  const std::vector<ViewTarget> t =
+      viewTargets(s.uncertainty, s.fit, s.views, s.heading_by_frame, 0.5);
+  ASSERT_EQ(t.size(), 2u);
+  // Left half: the cell at (20, 420). Of the corners, (600, 420) has the elevation nearest its
+  // own (a row's elevation falls toward the image's sides), seen at headings 0.5 and -0.3; from
+  // 0.5 the one seen there needs the smaller turn. Counter-clockwise moves the scene right: the
+  // heading falls by the azimuth from the cell to the corner.
+  EXPECT_NEAR(t[0].pixel.x, 20, 1e-9);
+  EXPECT_NEAR(t[0].pixel.y, 420, 1e-9);
+  EXPECT_DOUBLE_EQ(t[0].need, 3.0);
+  EXPECT_EQ(t[0].frame_index, 4);
+  EXPECT_NEAR(t[0].corner_px.x, 600, 1e-4);
+  EXPECT_NEAR(t[0].heading_rad, 0.5 + std::atan(-300.0 / 300) - std::atan(280.0 / 300), 1e-6);
+  EXPECT_NEAR(t[0].elevation_miss_rad, std::abs(elevation(600, 420) - elevation(20, 420)), 1e-6);
+  // From heading -2 the view at -0.3 is nearer.
+  const std::vector<ViewTarget> from_right =
+      viewTargets(s.uncertainty, s.fit, s.views, s.heading_by_frame, -2.0);
+  ASSERT_EQ(from_right.size(), 2u);
+  EXPECT_EQ(from_right[0].frame_index, 7);
+  EXPECT_NEAR(from_right[0].heading_rad, -0.3 + std::atan(-300.0 / 300) - std::atan(280.0 / 300),
+              1e-6);
+  // Right half: the cell at (620, 60), reached by the high corner.
+  EXPECT_NEAR(t[1].pixel.x, 620, 1e-9);
+  EXPECT_NEAR(t[1].corner_px.y, 60, 1e-4);
+  EXPECT_NEAR(t[1].heading_rad, 0.5 + std::atan(300.0 / 300) - std::atan(10.0 / 300), 1e-6);
+
+  // Without an uncertainty, the cells farthest from every corner seen.
+  ProjectionUncertainty none;
+  const std::vector<ViewTarget> far = viewTargets(none, s.fit, s.views, s.heading_by_frame, 0.5);
+  ASSERT_EQ(far.size(), 2u);
+  EXPECT_NEAR(far[0].pixel.x, 20, 1e-9);   // the left edge, far from the corners at x >= 330
+  EXPECT_GT(far[0].need, 300);
+
+  // No heading known for the view: nothing to turn to.
+  EXPECT_TRUE(viewTargets(s.uncertainty, s.fit, s.views, {}, 0.5).empty());
 }
 
 }  // namespace

@@ -289,6 +289,73 @@ TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
       << c.refusals("; ");
 }
 
+// More views where the projection is least sure: the wide lens's sweep, allowed to end as soon as
+// its coverage suffices (no min_steps), leaves the lower half of the image less sure than a strict
+// gate allows (0.6 px). The stage turns to where a corner it saw comes to the least sure cells,
+// takes views there, and passes; the truth confirms the lower half is nearer the lens than from
+// the sweep's views alone. Under a limit the turning robot cannot reach, it gives up after its
+// rounds with the gate's reasons.
+TEST(SweepRunInSim, MoreViewsWhereTheProjectionIsLeastSure) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "fleet/robot_wide.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  camera::CameraCalibrationConfig config = cameraConfigFor(world, robot);
+  config.quality_gate.max_lower_half_uncertainty_px = 0.6;  // a lab's stricter limit
+  camera::SweepRunOptions options = runOptionsFor(robot);
+  options.sweep.min_steps = 0;
+  camera::SweepRun run(options, config);
+  const test::SweepInSim r = test::runSweepInSim(robot, world, run, test::SweepInSimOptions());
+  std::cout << "sweep's views (" << run.sweepViews() << "): " << run.sweepRefusal() << "\n"
+            << run.refineRounds() << " rounds, " << r.sharp.size() << " views in all, "
+            << r.steps << " sweep steps, " << r.sim_s << " s; written: lower half uncertainty worst "
+            << r.result.uncertainty.lower_half_worst_px << " px\n";
+  for (const camera::ViewTarget& t : run.refineTargets())
+    std::cout << "last target (" << t.pixel.x << ", " << t.pixel.y << ") px, need " << t.need
+              << ", heading " << t.heading_rad << " rad, elevation miss " << t.elevation_miss_rad
+              << " rad\n";
+  ASSERT_TRUE(r.swept) << r.failure;
+  ASSERT_TRUE(r.calibration_failure.empty()) << r.calibration_failure;
+  ASSERT_GE(run.refineRounds(), 1);
+  EXPECT_NE(run.sweepRefusal().find("lower half"), std::string::npos) << run.sweepRefusal();
+  ASSERT_GT(run.sweepViews(), 0);
+  ASSERT_GT(static_cast<int>(r.sharp.size()), run.sweepViews());
+
+  // The sweep's views alone, fitted with the gate relaxed, against the written result.
+  camera::QualityGateOptions relaxed = config.quality_gate;
+  relaxed.max_lower_half_uncertainty_px = 1e3;
+  const std::vector<std::vector<cv::Point2f>> sweep_views(r.sharp.begin(),
+                                                          r.sharp.begin() + run.sweepViews());
+  const camera::ModelChoice before =
+      camera::calibrateChoosingModel(sweep_views, r.image_size, r.board, config.calibration, relaxed);
+  ASSERT_TRUE(before.passed) << before.refusals("; ");
+  const sim::ProjectionDifference d_before =
+      sim::projectionDifference(robot.camera.truth, before.result.intrinsics);
+  const sim::ProjectionDifference d =
+      sim::projectionDifference(robot.camera.truth, r.result.intrinsics);
+  const camera::ProjectionUncertainty& u = r.result.uncertainty;
+  std::cout << "lower half: uncertainty worst " << before.result.uncertainty.lower_half_worst_px
+            << " -> " << u.lower_half_worst_px << " px; true difference RMS "
+            << d_before.lower_rms_px << " -> " << d.lower_rms_px << " px; whole image worst "
+            << d_before.worst_px << " -> " << d.worst_px << " px\n";
+  ASSERT_TRUE(u.valid);
+  EXPECT_LE(u.lower_half_worst_px, config.quality_gate.max_lower_half_uncertainty_px);
+  EXPECT_LT(u.lower_half_worst_px, before.result.uncertainty.lower_half_worst_px);
+  EXPECT_EQ(d.unmapped, 0);
+  EXPECT_LT(d.lower_rms_px, 0.95 * d_before.lower_rms_px);
+  EXPECT_LT(d.worst_px, d_before.worst_px);
+
+  config.quality_gate.max_lower_half_uncertainty_px = 0.3;
+  options.refine_rounds = 1;
+  camera::SweepRun strict(options, config);
+  const test::SweepInSim f = test::runSweepInSim(robot, world, strict, test::SweepInSimOptions());
+  std::cout << "limit 0.3 px: " << f.failure << "\n";
+  EXPECT_FALSE(f.swept);
+  EXPECT_EQ(strict.refineRounds(), 1);
+  EXPECT_NE(f.failure.find("fails the quality gate"), std::string::npos);
+  EXPECT_NE(f.failure.find("after 1 round of more views where the projection was least sure"),
+            std::string::npos);
+  EXPECT_NE(f.failure.find("the lower half of the image is not pinned down"), std::string::npos);
+}
+
 /// The replay fed what a recording of the live run holds, in the order it holds it.
 struct ReplayTap : test::RecordingTap {
   ReplayTap(const camera::SweepRunOptions& o, const camera::CameraCalibrationConfig& c)

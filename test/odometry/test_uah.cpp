@@ -318,6 +318,24 @@ TEST(UahStraightRun, RejectsRunsThatStrayAndAveragesTheRest) {
   EXPECT_THROW(estimateMmPerPulse({}), autocal::InputError);
 }
 
+// A run that lost distance against its pulses (here 1.2 %: a wheel rubbing a wall) is rejected
+// against the others, which agree within the tape's and the pulses' resolution; the estimate is
+// the others'. Runs that keep their heading and agree are all kept.
+TEST(UahStraightRun, RejectsARunThatLostDistance) {
+  const Robot r = knownRobot();
+  std::vector<std::pair<double, double>> pulses;
+  std::vector<StraightRun> runs;
+  for (unsigned i = 0; i < 3; ++i) runs.push_back(straightRun(r, 3.0, 0.01, 20 + i, &pulses));
+  EXPECT_EQ(estimateMmPerPulse(runs).accepted_runs.size(), 3u);
+  runs[0].length_m *= 1 - 0.012;
+  const MmPerPulseEstimate e = estimateMmPerPulse(runs);
+  EXPECT_EQ(e.accepted_runs, (std::vector<int>{1, 2}));
+  ASSERT_EQ(e.rejected_runs, (std::vector<int>{0}));
+  EXPECT_NE(e.rejection_reasons[0].find("less distance per pulse"), std::string::npos)
+      << e.rejection_reasons[0];
+  EXPECT_NEAR(e.right_m_per_pulse / r.right_m_per_pulse, 1.0, 0.002);
+}
+
 TEST(UahStraightRun, HeadingDeviationFromEncoderPulses) {
   const Robot r = knownRobot();
   std::vector<std::pair<double, double>> pulses;

@@ -269,7 +269,8 @@ TEST(UahRunInSim, RunsBeyondTheHeadingThresholdAreRepeatedUpToTheBound) {
   std::printf("[strict heading] %s\n", o.failure.c_str());
   EXPECT_FALSE(o.done);
   EXPECT_EQ(o.straight_runs.size(), 4u);
-  EXPECT_NE(o.failure.find("straight runs kept the heading within 0.3 deg in 4 runs"),
+  EXPECT_NE(o.failure.find("straight runs kept the heading within 0.3 deg and agreed on the "
+                           "distance per pulse in 4 runs"),
             std::string::npos)
       << o.failure;
 }

@@ -284,6 +284,35 @@ TEST(SimRenderer, RollingShutterSeesEachRowAtItsReadoutTime) {
   EXPECT_GT(rms_end, 3.0);
 }
 
+// Light that changes across the room: each floor point is as bright as the gradient says at its
+// world position, against the same world in even light (the points' pixels from cv::projectPoints
+// of the true camera, not from the simulator's projection).
+TEST(SimRenderer, LightGradientScalesEachSurfaceByItsWorldPoint) {
+  const sim::RobotConfig robot = defaultRobot();
+  sim::RenderOptions o = optionsOf(robot.camera);
+  o.noise_sigma = 0;
+  sim::WorldConfig even;  // the bare floor
+  sim::WorldConfig lit = even;
+  lit.light_gradient.x_per_m = -0.4;
+  lit.light_gradient.y_per_m = 0.3;
+  sim::Renderer a(robot.camera, even, o), b(robot.camera, lit, o);
+  std::mt19937_64 rng(1);
+  const sim::Pose2 pose{0, 0, 0};
+  cv::Mat plain, shaded;
+  cv::cvtColor(a.render({pose}, rng), plain, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(b.render({pose}, rng), shaded, cv::COLOR_BGR2GRAY);
+  const std::vector<Eigen::Vector3d> points{
+      {0.25, 0.1, 0}, {0.9, -0.3, 0}, {0.5, 0.4, 0}, {0.6, 0.0, 0}};
+  const std::vector<cv::Point2f> pixels = projectTruth(robot.camera, pose, points);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const cv::Rect box(cvRound(pixels[i].x) - 2, cvRound(pixels[i].y) - 2, 5, 5);
+    ASSERT_TRUE((box & cv::Rect(0, 0, plain.cols, plain.rows)) == box) << "point " << i;
+    const double ratio = cv::mean(shaded(box))[0] / cv::mean(plain(box))[0];
+    const double truth = lit.light_gradient.at(points[i].x(), points[i].y());
+    EXPECT_NEAR(ratio, truth, 0.02 * truth) << "point " << i;
+  }
+}
+
 // Depth of field (robot YAML camera.focus_distance_m, defocus_px_per_diopter): a surface at
 // distance d is blurred by k·|1/d − 1/focus|. Board 2 seen from where it is in focus and from 0.4 m
 // farther back: over the board, the frame matches the sharp image blurred by the sigma the board's

@@ -47,12 +47,13 @@ class SweepReplay : public Stage {
   void setFramesUsed(std::set<double> stamps_s) { frames_used_ = std::move(stamps_s); }
   /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted.
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
-  /// Stage input: addCommand, and setCollecting while the phase is camera/collect.
+  /// Stage input: addCommand, and setCollecting while the phase is camera/collect or camera/refine
+  /// (more views after the sweep).
   void addRecordedCommand(double stamp_s, const WheelDuties& duties) override {
     addCommand(stamp_s, duties);
   }
   void addRecordedPhase(double stamp_s, const std::string& phase) override {
-    setCollecting(stamp_s, phase == "camera/collect");
+    setCollecting(stamp_s, phase == "camera/collect" || phase == "camera/refine");
   }
   /// Commands nothing; never done by itself (the recorded stage's end ends it).
   WheelDuties update(double /*now_s*/) override { return {}; }

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <map>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "autocal/camera/min_duty_probe.h"
 #include "autocal/camera/sweep_controller.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/camera/view_targets.h"
 #include "autocal/motion.h"
 #include "autocal/sensors.h"
 #include "autocal/stage.h"
@@ -68,6 +70,18 @@ struct SweepRunOptions {
   /// enough; the fit gains from every sharp view (a robot that stops for each frame sees 30–50 at
   /// no cost).
   bool calibrate_on_sharp_views = true;
+  /// When the sweep's views fail the quality gate: rounds of more views where the projection is
+  /// least sure (view_targets.h: the worst cell of each half of the image, and the heading that
+  /// brings a corner seen there) before the stage fails; 0: it fails at once. Each round takes
+  /// a view at each target's heading and refine_spread_rad either side of it, and is judged again.
+  int refine_rounds = 2;
+  double refine_spread_rad = 0.08;
+  /// A target heading counts as reached within this [rad], or when a step crossed it.
+  double refine_tolerance_rad = 0.04;
+  /// Steps toward one heading before its view is taken where the robot stands.
+  int refine_max_steps = 30;
+  /// The rounds together may take this long [s] (within max_duration_s).
+  double refine_max_s = 120.0;
 
   /// Throws ConfigError naming the first bad key.
   void validate() const;
@@ -78,9 +92,14 @@ struct SweepRunOptions {
 CameraCalibrationConfig sweepCameraConfig(CameraCalibrationConfig camera,
                                           const SweepRunOptions& options);
 
-/// Calibrates the collector's calibrationViews() (Zhang's method through OpenCV) and applies the
-/// config's quality gate; throws CalibrationError when there is no view, or naming the gates the
-/// result fails.
+/// Calibrates the collector's calibrationViews() (Zhang's method through OpenCV) with each lens
+/// model and applies the config's quality gate (calibrateChoosingModel); throws CalibrationError
+/// when there is no view or the views cannot determine a model.
+ModelChoice chooseSweepModel(const ViewCollector& collector, const CameraCalibrationConfig& camera);
+/// The chosen model's result; throws CalibrationError naming the gates it fails (`after`, if not
+/// empty, follows "the result fails the quality gate").
+CalibrationResult passedOrThrow(ModelChoice choice, const std::string& after = "");
+/// passedOrThrow(chooseSweepModel(collector, camera)).
 CalibrationResult calibrateSweepViews(const ViewCollector& collector,
                                       const CameraCalibrationConfig& camera);
 
@@ -89,8 +108,11 @@ CalibrationResult calibrateSweepViews(const ViewCollector& collector,
 void useNominalCamera(const CameraIntrinsics& nominal, bool as_guess,
                       CameraCalibrationConfig& camera, SweepRunOptions& run);
 
-enum class SweepRunStage { kWaitForData, kProbe, kSweep, kSwept, kFailed };
-const char* name(SweepRunStage stage);  ///< "wait", "probe", "collect", "calibrate", "failed"
+/// kJudge: the views are calibrated and judged (the next update after the sweep or a round of
+/// more views ends, so that the status says so while it computes).
+enum class SweepRunStage { kWaitForData, kProbe, kSweep, kRefine, kJudge, kSwept, kFailed };
+/// "wait", "probe", "collect", "refine", "calibrate" (kJudge and kSwept), "failed"
+const char* name(SweepRunStage stage);
 
 /// What the last processed frame showed (for the debug image and the status).
 struct SweepFrameReport {
@@ -130,8 +152,18 @@ class SweepRun : public Stage {
   bool swept() const { return stage_ == SweepRunStage::kSwept; }
   bool done() const override { return swept(); }
   /// Calibrates the kept views and applies the quality gate; throws CalibrationError when the views
-  /// cannot determine the model or the result fails the gate.
+  /// cannot determine the model or the result fails the gate. After the sweep the stage has
+  /// judged its views already (see refine_rounds): this is the result it judged.
   CalibrationResult calibrate() const;
+  /// Rounds of more views made where the projection was least sure, and the targets of the last.
+  int refineRounds() const { return refine_round_; }
+  const std::vector<ViewTarget>& refineTargets() const { return targets_; }
+  /// Why the sweep's own views were refused (empty: they passed, or not judged yet).
+  const std::string& sweepRefusal() const { return sweep_refusal_; }
+  /// The calibration views when the sweep's views were refused (0: they were not).
+  int sweepViews() const { return refine_views_before_; }
+  /// The heading by the encoders (nominal wheels) since the sweep began [rad, + = ccw].
+  double headingRad() const { return heading_rad_; }
 
   const SweepController& controller() const { return controller_; }
   /// The camera config in use (the sweep's coverage goal and views count applied).
@@ -172,6 +204,10 @@ class SweepRun : public Stage {
   void startPulse(double now_s, const WheelDuties& duties, double length_s);
   bool settled(double now_s) const;
   double headingChangeSinceObservation();
+  /// The sweep or a round of more views ended: calibrate, and either pass, plan the next round,
+  /// or fail.
+  void judgeViews(double now_s);
+  WheelDuties refineStep(double now_s);
   [[noreturn]] void fail(const std::string& reason);
 
   SweepRunOptions options_;
@@ -216,6 +252,20 @@ class SweepRun : public Stage {
   bool first_observation_ = true;
   std::map<int, cv::Mat> frames_;
   SweepFrameReport last_frame_;
+
+  double heading_rad_ = 0;               ///< see headingRad()
+  std::map<int, double> frame_heading_;  ///< heading_rad_ at each frame processed, by index
+  std::optional<ModelChoice> choice_;    ///< the last judgement of the views
+  std::string sweep_refusal_;
+  int refine_round_ = 0;
+  double refine_start_s_ = -1;
+  std::vector<ViewTarget> targets_;
+  std::vector<double> refine_headings_;  ///< of the current round, in the order visited
+  size_t refine_next_ = 0;
+  int refine_steps_ = 0;       ///< toward the current heading
+  double refine_last_remaining_ = 0;
+  bool refine_grab_ = false;   ///< at the current heading: its frame is wanted
+  int refine_views_before_ = 0;
 };
 
 }  // namespace camera

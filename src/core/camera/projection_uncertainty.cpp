@@ -70,12 +70,10 @@ double rayResidual(const CameraIntrinsics& in, const cv::Point2d& xy, const cv::
   return std::hypot(residual->x, residual->y);
 }
 
-/// Each pixel's ray under `in`, as a point at depth 1 in the camera frame: OpenCV's undistortion,
-/// then Newton's method on the projection itself. OpenCV's fixed-point undistortion alone does
-/// not converge over much of the image of a strongly distorted lens (plumb_bob k1 = -0.4: 152 of
-/// a 16 x 12 grid's cells came back off, some by hundreds of pixels). NaN where no ray projects
-/// within 1e-6 px of the pixel (beyond where the model maps).
-std::vector<cv::Point3d> rays(const CameraIntrinsics& in, const std::vector<cv::Point2d>& pixels) {
+}  // namespace
+
+std::vector<cv::Point3d> pixelRays(const CameraIntrinsics& in,
+                                   const std::vector<cv::Point2d>& pixels) {
   std::vector<cv::Point2d> normalised;
   if (fisheye(in)) {
     cv::fisheye::undistortPoints(pixels, normalised, cv::Mat(in.cameraMatrix()),
@@ -118,11 +116,9 @@ std::vector<cv::Point3d> rays(const CameraIntrinsics& in, const std::vector<cv::
   return out;
 }
 
-}  // namespace
-
 cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<bool>& fitted,
                                  const cv::Mat& cov, const cv::Point2d& pixel) {
-  const Projection p = projectWithJacobians(rays(in, {pixel}), zero3(), zero3(), in);
+  const Projection p = projectWithJacobians(pixelRays(in, {pixel}), zero3(), zero3(), in);
   const cv::Mat g = intrinsicColumns(p.intrinsics, freeParameters(fitted));
   const cv::Mat c = g * cov * g.t();
   return cv::Matx22d(c.at<double>(0, 0), c.at<double>(0, 1), c.at<double>(1, 0),
@@ -136,7 +132,7 @@ std::vector<double> projectionDifferences(const CameraIntrinsics& a, const Camer
     for (int c = 0; c < cols; ++c)
       pixels.emplace_back((c + 0.5) * a.width / cols, (r + 0.5) * a.height / rows);
   const std::vector<cv::Point2d> projected =
-      projectWithJacobians(rays(a, pixels), zero3(), zero3(), b).points;
+      projectWithJacobians(pixelRays(a, pixels), zero3(), zero3(), b).points;
   std::vector<double> out;
   for (size_t i = 0; i < pixels.size(); ++i) {
     const double d = std::hypot(projected[i].x - pixels[i].x, projected[i].y - pixels[i].y);

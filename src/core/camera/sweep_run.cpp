@@ -35,6 +35,14 @@ void SweepRunOptions::validate() const {
     checkConfig(std::isfinite(g) && g <= 1.0, "coverage_goal",
                 "each spread must be <= 1 (negative: the config's)");
   checkConfig(min_views >= 1, "min_views", "must be >= 1");
+  checkConfig(refine_rounds >= 0, "refine_rounds", "must be >= 0");
+  checkConfig(std::isfinite(refine_spread_rad) && refine_spread_rad >= 0 && refine_spread_rad < 1,
+              "refine_spread_rad", "must be in [0, 1) rad");
+  checkConfig(std::isfinite(refine_tolerance_rad) && refine_tolerance_rad > 0 &&
+                  refine_tolerance_rad < 0.5,
+              "refine_tolerance_rad", "must be in (0, 0.5) rad");
+  checkConfig(refine_max_steps >= 1, "refine_max_steps", "must be >= 1");
+  checkConfig(std::isfinite(refine_max_s) && refine_max_s > 0, "refine_max_s", "must be > 0");
 }
 
 const char* name(SweepRunStage stage) {
@@ -45,6 +53,9 @@ const char* name(SweepRunStage stage) {
       return "probe";
     case SweepRunStage::kSweep:
       return "collect";
+    case SweepRunStage::kRefine:
+      return "refine";
+    case SweepRunStage::kJudge:
     case SweepRunStage::kSwept:
       return "calibrate";
     case SweepRunStage::kFailed:
@@ -117,8 +128,10 @@ bool SweepRun::settled(double now_s) const {
 }
 
 bool SweepRun::wantsFrame(double stamp_s) const {
-  return stage_ == SweepRunStage::kSweep && step_ == Step::kSettle && !pending_decision_ &&
-         settled_at_s_ >= 0 && stamp_s >= settled_at_s_;
+  return (stage_ == SweepRunStage::kSweep ||
+          (stage_ == SweepRunStage::kRefine && refine_grab_)) &&
+         step_ == Step::kSettle && !pending_decision_ && settled_at_s_ >= 0 &&
+         stamp_s >= settled_at_s_;
 }
 
 double SweepRun::headingChangeSinceObservation() {
@@ -140,9 +153,19 @@ bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string&
     obs.boards_x.push_back(std::min(1.0, std::max(0.0, d.params.x)));
   const bool sharp_seen = collector_.sharpViews().size() > sharp_before;
   if (frame.any_kept() || sharp_seen) frames_[frame_index] = toGray(image);
+  const double turned = headingChangeSinceObservation();
+  heading_rad_ += first_observation_ ? 0.0 : turned;
+  frame_heading_[frame_index] = heading_rad_;
+  if (stage_ == SweepRunStage::kRefine) {  // a view where the projection is least sure
+    last_frame_.stamp_s = stamp_s;
+    last_frame_.frame = std::move(frame);
+    last_frame_.decision = SweepDecision{};
+    last_frame_.decision.reason = "more views";
+    pending_decision_ = true;
+    return true;
+  }
   obs.view_kept = frame.any_kept();
   obs.coverage_sufficient = collector_.coverage().sufficient;
-  const double turned = headingChangeSinceObservation();
   obs.turned_rad = first_observation_ ? 0.0 : turned;
   // Steps toward target_step_rad: the wheel speed grows about linearly with the duty above the
   // deadband, so the duty above the minimum is scaled by the ratio (bounded per step).
@@ -191,6 +214,10 @@ void SweepRun::startPulse(double now_s, const WheelDuties& duties, double length
 WheelDuties SweepRun::update(double now_s) {
   const WheelDuties stop{0, 0};
   if (stage_ == SweepRunStage::kFailed || stage_ == SweepRunStage::kSwept) return stop;
+  if (stage_ == SweepRunStage::kJudge) {
+    judgeViews(now_s);
+    return stop;
+  }
   if (!have_first_update_) {
     have_first_update_ = true;
     first_update_s_ = now_s;
@@ -244,6 +271,7 @@ WheelDuties SweepRun::update(double now_s) {
     if (!settled(now_s)) return stop;
     settled_at_s_ = now_s;
   }
+  if (stage_ == SweepRunStage::kRefine) return refineStep(now_s);
   if (stage_ == SweepRunStage::kProbe) {
     const WheelCommand probed = probe_.command();
     const int moved = probed.wheel == Wheel::kLeft ? encoders_.rawLeft() - probe_start_left_
@@ -275,7 +303,7 @@ WheelDuties SweepRun::update(double now_s) {
   const SweepDecision& decision = last_frame_.decision;
   if (decision.action == SweepAction::kFailed) fail("sweep: " + decision.reason);
   if (decision.action == SweepAction::kDone) {
-    stage_ = SweepRunStage::kSwept;
+    stage_ = SweepRunStage::kJudge;
     return stop;
   }
   const WheelCommand cmd = turnCommand(decision.direction, options_.sweep.pivot);
@@ -285,26 +313,130 @@ WheelDuties SweepRun::update(double now_s) {
   return duties_;
 }
 
-CalibrationResult calibrateSweepViews(const ViewCollector& collector,
-                                      const CameraCalibrationConfig& camera) {
+ModelChoice chooseSweepModel(const ViewCollector& collector, const CameraCalibrationConfig& camera) {
   std::vector<std::vector<cv::Point2f>> corners;
   for (const CalibrationView& v : collector.calibrationViews()) corners.push_back(v.corners);
   if (corners.empty())
     throw CalibrationError("no usable view of a " + camera.board.describe() + " board in " +
                            std::to_string(collector.frames()) + " frames");
-  ModelChoice choice = calibrateChoosingModel(corners, collector.imageSize(), camera.board,
-                                              camera.calibration, camera.quality_gate);
+  return calibrateChoosingModel(corners, collector.imageSize(), camera.board, camera.calibration,
+                                camera.quality_gate);
+}
+
+CalibrationResult passedOrThrow(ModelChoice choice, const std::string& after) {
   if (!choice.passed) {
     throw CalibrationError(std::string("the result fails the quality gate") +
                            (choice.refused.size() > 1 ? " with every lens model tried" : "") +
-                           ", nothing written: " + choice.refusals("; "));
+                           after + ", nothing written: " + choice.refusals("; "));
   }
   return std::move(choice.result);
 }
 
+CalibrationResult calibrateSweepViews(const ViewCollector& collector,
+                                      const CameraCalibrationConfig& camera) {
+  return passedOrThrow(chooseSweepModel(collector, camera));
+}
+
 CalibrationResult SweepRun::calibrate() const {
   if (!swept()) throw CalibrationError("calibrate() before the sweep ended");
+  if (choice_ && choice_->passed) return choice_->result;
   return calibrateSweepViews(collector_, camera_);
+}
+
+void SweepRun::judgeViews(double now_s) {
+  try {
+    choice_ = chooseSweepModel(collector_, camera_);
+  } catch (const CalibrationError& e) {
+    fail(e.what());
+  }
+  if (choice_->passed) {
+    stage_ = SweepRunStage::kSwept;
+    return;
+  }
+  if (refine_round_ == 0) {
+    sweep_refusal_ = choice_->refusals("; ");
+    refine_views_before_ = static_cast<int>(calibrationViews().size());
+  }
+  const bool out_of_time = refine_start_s_ >= 0 && now_s - refine_start_s_ > options_.refine_max_s;
+  if (refine_round_ < options_.refine_rounds && !out_of_time) {
+    targets_ = viewTargets(choice_->result.uncertainty, choice_->result.intrinsics,
+                           calibrationViews(), frame_heading_, heading_rad_);
+  }
+  if (refine_round_ >= options_.refine_rounds || out_of_time || targets_.empty()) {
+    std::string after;
+    if (refine_round_ > 0) {
+      after = " after " + std::to_string(refine_round_) + " round" +
+              (refine_round_ > 1 ? "s" : "") + " of more views where the projection was least sure (" +
+              std::to_string(static_cast<int>(calibrationViews().size()) - refine_views_before_) +
+              " views more" +
+              (out_of_time ? "; refine_max_s " + formatNumber(options_.refine_max_s, 3) + " s spent"
+                           : "") +
+              ")";
+    }
+    try {
+      passedOrThrow(std::move(*choice_), after);
+    } catch (const CalibrationError& e) {
+      fail(e.what());
+    }
+  }
+  // Each target's heading and refine_spread_rad either side, visited in one turn from the end
+  // nearer the robot's heading.
+  refine_headings_.clear();
+  for (const ViewTarget& t : targets_)
+    for (const double d : {-options_.refine_spread_rad, 0.0, options_.refine_spread_rad})
+      refine_headings_.push_back(t.heading_rad + d);
+  std::sort(refine_headings_.begin(), refine_headings_.end());
+  if (std::abs(heading_rad_ - refine_headings_.back()) <
+      std::abs(heading_rad_ - refine_headings_.front()))
+    std::reverse(refine_headings_.begin(), refine_headings_.end());
+  if (refine_start_s_ < 0) refine_start_s_ = now_s;
+  ++refine_round_;
+  refine_next_ = 0;
+  refine_steps_ = 0;
+  refine_last_remaining_ = 0;
+  refine_grab_ = false;
+  stage_ = SweepRunStage::kRefine;
+}
+
+WheelDuties SweepRun::refineStep(double now_s) {
+  const WheelDuties stop{0, 0};
+  heading_rad_ += headingChangeSinceObservation();
+  if (refine_grab_) {
+    if (!pending_decision_) {
+      if (now_s - settled_at_s_ > options_.camera_timeout_s)
+        fail("no usable camera frame for " + formatNumber(now_s - settled_at_s_, 3) +
+             " s after the robot stopped (frames arrive, but none could be used)");
+      return stop;
+    }
+    pending_decision_ = false;
+    refine_grab_ = false;
+    ++refine_next_;
+    refine_steps_ = 0;
+    refine_last_remaining_ = 0;
+  }
+  if (refine_next_ >= refine_headings_.size() || now_s - refine_start_s_ > options_.refine_max_s) {
+    stage_ = SweepRunStage::kJudge;
+    return stop;
+  }
+  const double remaining = refine_headings_[refine_next_] - heading_rad_;
+  const bool crossed = refine_steps_ > 0 && remaining * refine_last_remaining_ < 0;
+  if (std::abs(remaining) <= options_.refine_tolerance_rad || crossed ||
+      refine_steps_ >= options_.refine_max_steps) {
+    refine_grab_ = true;  // the next frame after settled_at_s_
+    return stop;
+  }
+  refine_last_remaining_ = remaining;
+  ++refine_steps_;
+  const WheelCommand cmd =
+      turnCommand(remaining > 0 ? TurnDirection::kCcw : TurnDirection::kCw, options_.sweep.pivot);
+  const double duty = std::min(options_.max_step_duty, minDuty().forCommand(cmd) + duty_above_min_);
+  // A step turns about target_step_rad: shorter near the heading (not below half, which may not
+  // move a wheel that needs a push to start).
+  const double share =
+      options_.target_step_rad > 0 ? std::abs(remaining) / options_.target_step_rad : 1.0;
+  startPulse(now_s, toDuties(cmd, duty),
+             options_.sweep.step_duration_s * std::max(0.5, std::min(1.0, share)));
+  return duties_;
 }
 
 double SweepRun::progress() const {
@@ -329,6 +461,15 @@ double SweepRun::progress() const {
       const double legs = std::min(1.0, (leg_ + within) / kExpectedLegs);
       return kProbeShare + (0.95 - kProbeShare) * 0.5 * (coverage + legs);
     }
+    case SweepRunStage::kRefine: {
+      const double round =
+          refine_headings_.empty()
+              ? 0.0
+              : static_cast<double>(refine_next_) / static_cast<double>(refine_headings_.size());
+      return 0.9 + 0.05 * std::min(1.0, (refine_round_ - 1 + round) /
+                                             std::max(1, options_.refine_rounds));
+    }
+    case SweepRunStage::kJudge:
     case SweepRunStage::kSwept:
     case SweepRunStage::kFailed:
       return 0.95;
@@ -353,6 +494,18 @@ std::string SweepRun::describe() const {
     case SweepRunStage::kSweep:
       s << controller_.describe() << ", " << collector_.coverage().summary();
       break;
+    case SweepRunStage::kRefine: {
+      s << "more views where the projection is least sure: round " << refine_round_ << "/"
+        << options_.refine_rounds << ", heading " << std::min(refine_next_ + 1, refine_headings_.size())
+        << "/" << refine_headings_.size() << " (around";
+      for (const ViewTarget& t : targets_)
+        s << " (" << formatNumber(t.pixel.x, 3) << ", " << formatNumber(t.pixel.y, 3) << ") px";
+      s << "), " << calibrationViews().size() << " views";
+      break;
+    }
+    case SweepRunStage::kJudge:
+      s << "calibrating " << calibrationViews().size() << " views with each lens model";
+      break;
     case SweepRunStage::kSwept:
       s << "swept: " << collector_.views().size() << " views in " << collector_.frames()
         << " frames, " << controller_.steps() << " steps";
@@ -373,6 +526,7 @@ StageStatus SweepRun::status() const {
                {"sharp_views", static_cast<double>(sharpViews().size())},
                {"frames", framesProcessed()},
                {"steps", controller_.steps()},
+               {"refine_rounds", refine_round_},
                {"elapsed_s", elapsedS()}};
   return s;
 }

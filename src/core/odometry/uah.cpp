@@ -255,6 +255,9 @@ void StraightRunOptions::validate() const {
   if (!(max_heading_deviation_rad > 0.0 && max_heading_deviation_rad < M_PI / 4)) {
     throw ConfigError("max_heading_deviation_rad must be in (0, π/4)");
   }
+  if (!(max_disagreement > 0.0 && max_disagreement < 0.2)) {
+    throw ConfigError("max_disagreement must be in (0, 0.2)");
+  }
 }
 
 MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
@@ -262,7 +265,7 @@ MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
   options.validate();
   if (runs.empty()) throw InputError("no straight runs");
   MmPerPulseEstimate e;
-  double sum = 0.0;
+  std::vector<int> kept;  // within the heading bound
   for (size_t i = 0; i < runs.size(); ++i) {
     const StraightRun& run = runs[i];
     if (!(run.length_m > 0.0) || !(run.right_pulses > 0.0) || !std::isfinite(run.length_m) ||
@@ -280,8 +283,29 @@ MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
           formatNumber(options.max_heading_deviation_rad * 180 / M_PI, 3) + " deg");
       continue;
     }
-    e.accepted_runs.push_back(static_cast<int>(i));
-    sum += run.length_m / run.right_pulses;  // §2.3: c_R = distance / N_R
+    kept.push_back(static_cast<int>(i));
+  }
+  // §2.3: c_R = distance / N_R. A run loses distance against its pulses, never gains it: the
+  // largest c_R of the kept runs is the reference the others must agree with.
+  const auto perPulse = [&](int i) { return runs[i].length_m / runs[i].right_pulses; };
+  int largest = -1;
+  for (int i : kept)
+    if (largest < 0 || perPulse(i) > perPulse(largest)) largest = i;
+  double sum = 0.0;
+  for (int i : kept) {
+    const double short_by = 1 - perPulse(i) / perPulse(largest);
+    if (short_by > options.max_disagreement) {
+      e.rejected_runs.push_back(i);
+      e.rejection_reasons.push_back(
+          "run " + std::to_string(i) + ": " + formatNumber(100 * short_by, 3) +
+          " % less distance per pulse than run " + std::to_string(largest) + " (limit " +
+          formatNumber(100 * options.max_disagreement, 3) +
+          " %): it lost distance on the way (a wheel slipped or rubbed a wall, or the path "
+          "curved)");
+      continue;
+    }
+    e.accepted_runs.push_back(i);
+    sum += perPulse(i);
   }
   if (e.accepted_runs.empty()) {
     std::string why;

@@ -385,17 +385,27 @@ void UahRun::setStraightLength(double length_m) {
   }
   straight_runs_.push_back({length_m, run_right_pulses_, run_max_dev_rad_});
   ++attempts_;
-  if (run_max_dev_rad_ <= options_.straight.max_heading_deviation_rad) ++accepted_;
+  // The runs that count: within the heading bound and agreeing on the distance per pulse.
+  MmPerPulseEstimate agreeing;
+  try {
+    agreeing = estimateMmPerPulse(straight_runs_, options_.straight);
+  } catch (const CalibrationError&) {
+    // none kept yet
+  }
+  accepted_ = static_cast<int>(agreeing.accepted_runs.size());
   if (accepted_ >= options_.straight_runs) {
     finish();
     return;
   }
   const int bound = options_.straight_runs + options_.max_straight_retries;
   if (attempts_ >= bound) {
+    std::string why;
+    for (const std::string& r : agreeing.rejection_reasons) why += "; " + r;
     fail("only " + std::to_string(accepted_) + " of " + std::to_string(options_.straight_runs) +
          " straight runs kept the heading within " +
-         deg(options_.straight.max_heading_deviation_rad) + " in " + std::to_string(attempts_) +
-         " runs (last deviated " + deg(run_max_dev_rad_) + ")");
+         deg(options_.straight.max_heading_deviation_rad) +
+         " and agreed on the distance per pulse in " + std::to_string(attempts_) + " runs" +
+         (why.empty() ? " (last deviated " + deg(run_max_dev_rad_) + ")" : why));
   }
   // The next run goes back along the same line (a rejected one is repeated that way too).
   straight_dir_ = -straight_dir_;

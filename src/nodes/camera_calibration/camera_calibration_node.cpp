@@ -72,6 +72,11 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
     throw ConfigError("~coverage_goal: expected 6 spreads (x, y, size, skew, distance, tilt)");
   std::copy(goal.begin(), goal.end(), r.coverage_goal.begin());
   p.get("calibrate_on_sharp_views", r.calibrate_on_sharp_views);
+  p.get("refine_rounds", r.refine_rounds);
+  p.get("refine_spread_rad", r.refine_spread_rad);
+  p.get("refine_tolerance_rad", r.refine_tolerance_rad);
+  p.get("refine_max_steps", r.refine_max_steps);
+  p.get("refine_max_s", r.refine_max_s);
 
   SweepOptions& s = r.sweep;
   p.get("board_count", s.board_count);

@@ -107,6 +107,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("straight_runs", r.straight_runs);
   p.get("max_straight_retries", r.max_straight_retries);
   p.get("max_heading_deviation_rad", r.straight.max_heading_deviation_rad);
+  p.get("max_straight_disagreement", r.straight.max_disagreement);
   p.get("min_clearance_m", r.min_clearance_m);
   p.get("window_fraction", r.detection.window_fraction);
   p.get("min_peak_correlation", r.detection.min_peak_correlation);

@@ -162,9 +162,23 @@ struct ObstacleConfig {
   std::vector<double> color{180, 60, 60};  ///< RGB 0..255
 };
 
+/// Light that changes across the room (a window on one side, lamps over one end): every surface's
+/// colour is scaled by 1 + x_per_m * x + y_per_m * y at its world point (x, y), held to
+/// [kMinLight, kMaxLight]. Zero: even light.
+struct LightGradientConfig {
+  static constexpr double kMinLight = 0.3, kMaxLight = 1.7;
+  double x_per_m = 0, y_per_m = 0;  ///< [1/m], each within +-0.5
+  double at(double x_m, double y_m) const {
+    const double k = 1 + x_per_m * x_m + y_per_m * y_m;
+    return k < kMinLight ? kMinLight : k > kMaxLight ? kMaxLight : k;
+  }
+  bool even() const { return x_per_m == 0 && y_per_m == 0; }
+};
+
 struct WorldConfig {
   Pose2 robot_start;
   std::vector<double> floor_color{150, 150, 145};  ///< RGB 0..255
+  LightGradientConfig light_gradient;
   std::vector<ChessboardConfig> chessboards;
   std::vector<FloorTagConfig> floor_tags;
   std::vector<FloorBoardConfig> floor_boards;

@@ -4,16 +4,18 @@
 Draws N robots (seeded) from sim/config/robot.yaml (the realistic default robot): a wide-angle
 (equidistant) lens whose plumb_bob fit lands within the real fleet's ranges (fx 309-352 px, which
 Duckietown's plumb_bob calibrations see as 317-361; cx 300-336, cy 210-256; k1 -0.01..0.05, k2
--0.03..0.01), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway duties,
-backward gains, a gain drift, gearbox backlash and wheel slip within their documented ranges, and the transport of
-robot.yaml; and a light gradient across the room (world YAML `light_gradient`, up to 0.1 per metre
-along each axis) in world_full.yaml (world.yaml with --no-odometry). Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH
-stages; --no-odometry: the first two) at each real-time factor given (1: a robot's own computer; 3: one
+-0.03..0.01), a trim within -0.09..+0.08 (motor gains and wheel radii), a deadband, breakaway
+duties, backward gains, a gain drift, gearbox backlash and wheel slip within their documented
+ranges, and the transport of robot.yaml. Each robot's room is world_full.yaml (world.yaml with
+--no-odometry) lit by a light gradient (world YAML `light_gradient`, up to 0.1 per metre along each
+axis). Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH stages;
+--no-odometry: the first two) at each real-time factor given (1: a robot's own computer; 3: one
 three times slower), on its own master. From the simulator's truth (compare_camera,
-compare_wheels, the odometry file against the robot's radii and wheelbase) it reports per run the
-result and reason, fx/fy error, the whole-image projection difference, the trim error, the drift
-over 2 m, the errors of Ed and the wheelbase, and prints Markdown tables with the
-distributions (median, 95th percentile, worst) for BENCHMARKS.md.
+compare_wheels, compare_extrinsics, the odometry file against the robot's radii and wheelbase) it
+reports per run the result and reason, fx/fy error, the whole-image projection difference, the
+trim error, the drift over 2 m, the errors of Ed and the wheelbase, and the ground projection's
+error (floor points 0.1-0.6 m ahead; the camera's height, pitch, roll and yaw), and prints
+Markdown tables with the distributions (median, 95th percentile, worst) for BENCHMARKS.md.
 
     /usr/bin/python3 scripts/robustness.py [--robots 20] [--rtf 1 3] [--seed 1] [--no-odometry]
                                            [--out build/robustness]
@@ -122,6 +124,19 @@ def judge(robot_file, root, veh):
             if m:  # nan: the robot never came 2 m along the line (it turned away or stalled)
                 d = float(m.group(1))
                 out["drift_%s_cm" % v] = float("inf") if d != d else d
+    extrinsics = os.path.join(root, "camera_extrinsic", veh + ".yaml")
+    if os.path.isfile(extrinsics) and os.path.isfile(camera):
+        text = subprocess.run(["rosrun", "autocal", "compare_extrinsics", "--robot-config",
+                               robot_file, "--calibration", extrinsics, "--camera-info", camera],
+                              stdout=subprocess.PIPE, text=True).stdout
+        ground = figures(r"ground projection: ([0-9.]+) mm RMS, ([0-9.]+) mm worst", text)
+        if ground:
+            out.update(ground_rms_mm=ground[0], ground_worst_mm=ground[1])
+        for key, label in (("height_mm", "height \\[mm\\]"), ("pitch_deg", "pitch \\[deg\\]"),
+                           ("roll_deg", "roll \\[deg\\]"), ("yaw_deg", "yaw \\[deg\\]")):
+            e = figures(r"^%s\s+\S+\s+\S+\s+([-+0-9.]+)" % label, text)
+            if e:
+                out[key] = abs(e[0])
     return out
 
 
@@ -184,9 +199,10 @@ def main():
             r = run_one(robot_file, world_file, veh, rtf, root, 11700 + i, a.odometry)
             r.update(judge(robot_file, root, veh), robot=veh, rtf=rtf)
             rows.append(r)
+            shown = {k: v for k, v in r.items()
+                     if k.endswith(("pct", "px", "err", "cm", "mm", "deg"))}
             print("%s rtf %g: %s %s (%.0f s) %s" % (veh, rtf, r["result"], r["failure"],
-                                                     r["wall_s"], {k: v for k, v in r.items()
-                                                                   if k.endswith(("pct", "px", "err", "cm"))}),
+                                                     r["wall_s"], shown),
                   file=sys.stderr, flush=True)
     print("## Robustness: the whole calibration in robot mode\n")
     print("%d robots drawn from `sim/config/robot.yaml`, each in `%s` with a light gradient, with "
@@ -199,7 +215,10 @@ def main():
             ("proj_lower_px", "lower half RMS px"), ("trim_err", "trim error"),
             ("drift_0.15_cm", "drift 0.15 m/s cm"), ("drift_0.25_cm", "drift 0.25 m/s cm"),
             ("drift_0.40_cm", "drift 0.4 m/s cm"), ("ed_pct", "Ed error %"),
-            ("wheelbase_pct", "wheelbase error %"), ("wall_s", "wall s")]
+            ("wheelbase_pct", "wheelbase error %"), ("ground_rms_mm", "ground RMS mm"),
+            ("ground_worst_mm", "ground worst mm"), ("height_mm", "camera height mm"),
+            ("pitch_deg", "pitch deg"), ("roll_deg", "roll deg"), ("yaw_deg", "yaw deg"),
+            ("wall_s", "wall s")]
     print("| real-time factor | succeeded | " + " | ".join(k[1] for k in keys) + " |")
     print("|---" * (len(keys) + 2) + "|")
     for rtf in a.rtf:

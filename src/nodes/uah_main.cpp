@@ -183,6 +183,7 @@ int run(int argc, char** argv) {
       << ", length_m: " << formatNumber(run.length_m)
       << ", right_pulses: " << formatNumber(run.right_pulses)
       << ", heading_deviation_deg: " << formatNumber(run.max_heading_deviation_rad * 180 / M_PI, 3)
+      << ", shortening_pct: " << formatNumber(100 * run.shortening, 3)
       << ", accepted: " << (accepted ? "true" : "false") << "}\n";
   }
   if (!args.out.empty()) {

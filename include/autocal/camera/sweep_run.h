@@ -208,6 +208,8 @@ class SweepRun : public Stage {
   /// or fail.
   void judgeViews(double now_s);
   WheelDuties refineStep(double now_s);
+  /// Fails when no usable frame came for camera_timeout_s since the robot settled.
+  void failWithoutUsableFrame(double now_s);
   [[noreturn]] void fail(const std::string& reason);
 
   SweepRunOptions options_;

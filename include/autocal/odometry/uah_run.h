@@ -230,7 +230,7 @@ class UahRun : public Stage {
   double max_heading_dev_rad_ = 0;
   bool awaiting_length_ = false;
   double awaiting_since_s_ = 0;
-  double run_right_pulses_ = 0, run_max_dev_rad_ = 0;
+  double run_right_pulses_ = 0, run_max_dev_rad_ = 0, run_shortening_ = 0;
   std::vector<StraightRun> straight_runs_;
 };
 

@@ -204,6 +204,14 @@ void SweepRun::fail(const std::string& reason) {
   throw CalibrationError(reason);
 }
 
+void SweepRun::failWithoutUsableFrame(double now_s) {
+  // Waiting for a frame taken after settled_at_s_. Frames that keep coming but cannot be used
+  // (undecodable, another size: the caller drops them) are a silent camera too.
+  if (now_s - settled_at_s_ > options_.camera_timeout_s)
+    fail("no usable camera frame for " + formatNumber(now_s - settled_at_s_, 3) +
+         " s after the robot stopped (frames arrive, but none could be used)");
+}
+
 void SweepRun::startPulse(double now_s, const WheelDuties& duties, double length_s) {
   duties_ = duties;
   step_ = Step::kPulse;
@@ -292,11 +300,7 @@ WheelDuties SweepRun::update(double now_s) {
   }
 
   if (!pending_decision_) {
-    // Waiting for a frame taken after settled_at_s_. Frames that keep coming but cannot be used
-    // (undecodable, another size: the caller drops them) are a silent camera too.
-    if (now_s - settled_at_s_ > options_.camera_timeout_s)
-      fail("no usable camera frame for " + formatNumber(now_s - settled_at_s_, 3) +
-           " s after the robot stopped (frames arrive, but none could be used)");
+    failWithoutUsableFrame(now_s);
     return stop;
   }
   pending_decision_ = false;
@@ -403,9 +407,7 @@ WheelDuties SweepRun::refineStep(double now_s) {
   heading_rad_ += headingChangeSinceObservation();
   if (refine_grab_) {
     if (!pending_decision_) {
-      if (now_s - settled_at_s_ > options_.camera_timeout_s)
-        fail("no usable camera frame for " + formatNumber(now_s - settled_at_s_, 3) +
-             " s after the robot stopped (frames arrive, but none could be used)");
+      failWithoutUsableFrame(now_s);
       return stop;
     }
     pending_decision_ = false;

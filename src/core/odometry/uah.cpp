@@ -255,6 +255,9 @@ void StraightRunOptions::validate() const {
   if (!(max_heading_deviation_rad > 0.0 && max_heading_deviation_rad < M_PI / 4)) {
     throw ConfigError("max_heading_deviation_rad must be in (0, π/4)");
   }
+  if (!(max_shortening > 0.0 && max_shortening < 0.05)) {
+    throw ConfigError("max_shortening must be in (0, 0.05)");
+  }
   if (!(max_disagreement > 0.0 && max_disagreement < 0.2)) {
     throw ConfigError("max_disagreement must be in (0, 0.2)");
   }
@@ -274,13 +277,22 @@ MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
                        ": length and pulses must be positive numbers");
     }
     // §2.3: the start-to-end distance stands for the wheel's path only while the heading stays
-    // close to the initial one; reject the run otherwise.
+    // close to the initial one; reject the run otherwise, or when its excursions cost the
+    // distance more than a steady max_shortening would.
     if (!(std::abs(run.max_heading_deviation_rad) <= options.max_heading_deviation_rad)) {
       e.rejected_runs.push_back(static_cast<int>(i));
       e.rejection_reasons.push_back(
           "run " + std::to_string(i) + ": heading deviated " +
           formatNumber(run.max_heading_deviation_rad * 180 / M_PI, 3) + " deg > " +
           formatNumber(options.max_heading_deviation_rad * 180 / M_PI, 3) + " deg");
+      continue;
+    }
+    if (!(run.shortening <= options.max_shortening)) {
+      e.rejected_runs.push_back(static_cast<int>(i));
+      e.rejection_reasons.push_back(
+          "run " + std::to_string(i) + ": its heading's excursions shortened it by " +
+          formatNumber(100 * run.shortening, 3) + " % against the wheel's path > " +
+          formatNumber(100 * options.max_shortening, 3) + " %");
       continue;
     }
     kept.push_back(static_cast<int>(i));
@@ -327,6 +339,18 @@ double maxHeadingDeviationRad(const std::vector<std::pair<double, double>>& cumu
     worst = std::max(worst, std::abs(dr.pose().yaw_rad));
   }
   return worst;
+}
+
+double pathShortening(const std::vector<std::pair<double, double>>& cumulative_pulses,
+                      const DiffDriveParams& params) {
+  if (cumulative_pulses.size() < 2) return 0.0;
+  DeadReckoning dr(params);
+  for (size_t i = 1; i < cumulative_pulses.size(); ++i) {
+    dr.addPulses(cumulative_pulses[i].first - cumulative_pulses[i - 1].first,
+                 cumulative_pulses[i].second - cumulative_pulses[i - 1].second);
+  }
+  if (!(dr.distance_m() > 0.0)) return 0.0;
+  return 1.0 - std::hypot(dr.pose().x_m, dr.pose().y_m) / dr.distance_m();
 }
 
 WheelbaseEstimate estimateWheelbase(double spin_pulses_per_round,

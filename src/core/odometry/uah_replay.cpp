@@ -414,6 +414,7 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     run.length_m = length_m;
     run.right_pulses = std::abs(history.back().right - start.right);
     run.max_heading_deviation_rad = maxHeadingDeviationRad(cumulative, heading);
+    run.shortening = pathShortening(cumulative, heading);
     const double odometry_m = run.right_pulses * o.nominal.right_m_per_pulse;
     if (std::abs(length_m / odometry_m - 1) > o.max_length_mismatch) {
       throw CalibrationError("straight run " + std::to_string(k + 1) + " (at " + at(m.start_s) +

@@ -364,6 +364,7 @@ void UahRun::onSettled(double now_s) {
   }
   run_right_pulses_ = std::abs(drive_.samples().back().right - start_right_);
   run_max_dev_rad_ = maxHeadingDeviationRad(cumulative, headingParams());
+  run_shortening_ = pathShortening(cumulative, headingParams());
   motion_ = Motion::kNone;
   awaiting_length_ = true;
   awaiting_since_s_ = now_s;
@@ -383,7 +384,7 @@ void UahRun::setStraightLength(double length_m) {
          " m the nominal right wheel counted (a run cut short, a slipping wheel or a wrong "
          "measurement)");
   }
-  straight_runs_.push_back({length_m, run_right_pulses_, run_max_dev_rad_});
+  straight_runs_.push_back({length_m, run_right_pulses_, run_max_dev_rad_, run_shortening_});
   ++attempts_;
   // The runs that count: within the heading bound and agreeing on the distance per pulse.
   MmPerPulseEstimate agreeing;

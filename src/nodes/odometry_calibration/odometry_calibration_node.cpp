@@ -3,6 +3,7 @@
 #include <geometry_msgs/Point.h>
 #include <std_msgs/Float64.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -107,6 +108,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("straight_runs", r.straight_runs);
   p.get("max_straight_retries", r.max_straight_retries);
   p.get("max_heading_deviation_rad", r.straight.max_heading_deviation_rad);
+  p.get("max_straight_shortening", r.straight.max_shortening);
   p.get("max_straight_disagreement", r.straight.max_disagreement);
   p.get("min_clearance_m", r.min_clearance_m);
   p.get("window_fraction", r.detection.window_fraction);
@@ -198,14 +200,21 @@ void OdometryCalibrationNode::onStraightLength(double length_m) {
                   [&] { uah_->setStraightLength(length_m); })) {
     return;
   }
-  const StraightRun& last = uah_->straightRuns().back();
+  const std::vector<StraightRun>& runs = uah_->straightRuns();
+  const StraightRun& last = runs.back();
+  bool accepted = false;
+  try {
+    const MmPerPulseEstimate e = estimateMmPerPulse(runs, options_.run.straight);
+    accepted = std::find(e.accepted_runs.begin(), e.accepted_runs.end(),
+                         static_cast<int>(runs.size()) - 1) != e.accepted_runs.end();
+  } catch (const CalibrationError&) {
+    // none accepted
+  }
   ROS_INFO(
       "odometry_calibration_node: straight run %d: %.4f m given, %.0f right pulses, heading "
-      "deviated %.2f deg (%s)",
+      "deviated %.2f deg, shortened %.3f %% (%s)",
       run, last.length_m, last.right_pulses, last.max_heading_deviation_rad * 180 / M_PI,
-      last.max_heading_deviation_rad <= options_.run.straight.max_heading_deviation_rad
-          ? "accepted"
-          : "rejected");
+      100 * last.shortening, accepted ? "accepted" : "rejected");
 }
 
 }  // namespace odometry

@@ -55,7 +55,8 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
             << "fx " << e.fx << " (" << t.fx << ") fy " << e.fy << " (" << t.fy << ") cx " << e.cx
             << " (" << t.cx << ") cy " << e.cy << " (" << t.cy << ") k1 "
             << e.distortion_coefficients[0] << " (" << t.distortion_coefficients[0] << ") rms "
-            << r.result.rms_px << " " << r.result.fitted_terms << "\n";
+            << r.result.rms_px << " " << r.result.fitted_terms << "\n"
+            << "halves " << r.result.halves.ratio << " refused first: " << r.result.refused_models << "\n";
   EXPECT_NEAR(e.fx, t.fx, 0.003 * t.fx);
   EXPECT_NEAR(e.fy, t.fy, 0.003 * t.fy);
   EXPECT_NEAR(e.cx, t.cx, 2.0);

@@ -37,6 +37,8 @@ void CameraCalibrationConfig::validate() const {
   checkConfig(selection.max_views >= selection.min_views && selection.min_views >= 1,
               "view_selection.max_views", "must be >= min_views >= 1");
   checkConfig(selection.max_edge_width_px > 0, "view_selection.max_edge_width_px", "must be > 0");
+  checkConfig(selection.min_edge_distance_spacings >= 0, "view_selection.min_edge_distance_spacings",
+              "must be >= 0");
   checkConfig(selection.nominal_focal_width_ratio > 0, "view_selection.nominal_focal_width_ratio",
               "must be > 0");
   checkConfig(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
@@ -45,6 +47,8 @@ void CameraCalibrationConfig::validate() const {
               "must be > 0");
   checkConfig(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
   checkConfig(calibration.model_rms_margin >= 0, "calibration.model_rms_margin", "must be >= 0");
+  checkConfig(calibration.model_corner_cap_factor > 0, "calibration.model_corner_cap_factor",
+              "must be > 0");
   checkConfig(calibration.model_uncertainty_margin >= 0 && calibration.model_uncertainty_margin <= 1,
               "calibration.model_uncertainty_margin", "must be in [0, 1]");
   checkConfig(calibration.max_selection_folds >= 2, "calibration.max_selection_folds",
@@ -105,6 +109,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.selection.nominal_focal_width_ratio = s.required<double>("nominal_focal_width_ratio");
     c.selection.max_distance_m = s.required<double>("max_distance_m");
     c.selection.max_edge_width_px = s.required<double>("max_edge_width_px");
+    c.selection.min_edge_distance_spacings = s.optional<double>(
+        "min_edge_distance_spacings", c.selection.min_edge_distance_spacings);
     c.selection.keep_sharp_views = s.required<bool>("keep_sharp_views");
     s.finish();
   }
@@ -116,6 +122,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
       for (const std::string& m : k.required<std::vector<std::string>>("fallback_models"))
         c.calibration.fallback_models.push_back(parseDistortionModel(m));
     }
+    c.calibration.model_corner_cap_factor =
+        k.optional<double>("model_corner_cap_factor", c.calibration.model_corner_cap_factor);
     c.calibration.model_rms_margin =
         k.optional<double>("model_rms_margin", c.calibration.model_rms_margin);
     c.calibration.model_uncertainty_margin =

@@ -145,7 +145,36 @@ bool ViewCollector::usableAndSharp(const std::vector<cv::Point2f>& corners,
   for (const auto& p : corners) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) return false;
   }
-  return edge_width_px <= selection_.max_edge_width_px;
+  return edge_width_px <= selection_.max_edge_width_px && nearEdge(corners).empty();
+}
+
+std::string ViewCollector::nearEdge(const std::vector<cv::Point2f>& corners) const {
+  if (!(selection_.min_edge_distance_spacings > 0) || image_size_.area() == 0) return "";
+  const int cols = board_.inner_corners.width, rows = board_.inner_corners.height;
+  if (static_cast<int>(corners.size()) != cols * rows) return "";
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const cv::Point2f& p = corners[static_cast<size_t>(r * cols + c)];
+      double spacing = std::numeric_limits<double>::infinity();
+      for (const auto& [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || rr >= rows || cc < 0 || cc >= cols) continue;
+        spacing = std::min(spacing, static_cast<double>(cv::norm(
+                                        p - corners[static_cast<size_t>(rr * cols + cc)])));
+      }
+      const double edge = std::min({static_cast<double>(p.x), static_cast<double>(p.y),
+                                    image_size_.width - 1.0 - p.x, image_size_.height - 1.0 - p.y});
+      if (edge < selection_.min_edge_distance_spacings * spacing) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "cut by the image's edge: a corner at (%.0f, %.0f) is %.1f px from it, "
+                      "less than %.1f corner spacings (%.1f px)",
+                      p.x, p.y, edge, selection_.min_edge_distance_spacings, spacing);
+        return buf;
+      }
+    }
+  }
+  return "";
 }
 
 ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, double edge_width_px) {
@@ -170,6 +199,8 @@ ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, doubl
     d.reason = buf;
     return d;
   }
+  d.reason = nearEdge(corners);
+  if (!d.reason.empty()) return d;
   if (static_cast<int>(views_.size()) >= selection_.max_views) {
     d.reason = "enough views already (" + std::to_string(views_.size()) + ")";
     return d;

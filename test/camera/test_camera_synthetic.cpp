@@ -244,7 +244,13 @@ TEST(CameraSynthetic, CoverageBecomesSufficientAndExtraViewsAreRefused) {
   ViewCollector whole{testBoard(), ChessboardDetectorOptions(), sel};
   size_t inside = 0;  // a view that no edge cuts
   while (!whole.addView(views[inside], kImage, 2.0, "whole").kept) ++inside;
-  const ViewDecision extra = collector.addView(views[inside], kImage, 2.0, "extra");
+  std::vector<cv::Point2f> moved = views[inside];
+  for (auto& q : moved) q.x += 0.5f;  // not the same corners: a new view, judged as one
+  const ViewDecision extra = collector.addView(moved, kImage, 2.0, "extra");
+  // The same corners again (a repeated frame) are no new measurement.
+  const ViewDecision again = collector.addView(views[inside], kImage, 2.0, "again");
+  EXPECT_FALSE(again.sharp);
+  EXPECT_NE(again.reason.find("repeated frame"), std::string::npos) << again.reason;
   EXPECT_FALSE(extra.kept);
   EXPECT_NE(extra.reason.find("enough views"), std::string::npos) << extra.reason;
   // A blurred view is refused before anything else is judged.
@@ -799,7 +805,9 @@ TEST(CameraImages, FramesOneAtATimeKeepOnlyNewViewsAndReportCoverage) {
   const FrameResult again = collector.addFrame(a, "a again");
   ASSERT_EQ(again.decisions.size(), 1u);
   EXPECT_FALSE(again.decisions[0].kept);
-  EXPECT_NE(again.decisions[0].reason.find("too similar"), std::string::npos);
+  EXPECT_NE(again.decisions[0].reason.find("repeated frame"), std::string::npos)
+      << again.decisions[0].reason;
+  EXPECT_EQ(collector.sharpViews().size(), 1u);
   cv::Mat b = background();
   renderBoard(b, {{35, 35}, {225, 50}, {220, 175}, {40, 160}});
   EXPECT_TRUE(collector.addFrame(b, "b").any_kept());

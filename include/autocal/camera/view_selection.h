@@ -129,6 +129,10 @@ class ViewCollector {
  private:
   ViewDecision judge(const std::vector<cv::Point2f>& corners, double edge_width_px);
   bool usableAndSharp(const std::vector<cv::Point2f>& corners, double edge_width_px) const;
+  /// Whether a sharp view already has these corners (within 0.001 px each): a repeated frame (a
+  /// camera driver that sends its last frame again, a simulator standing still) is not a new
+  /// measurement, and counted again it would shrink the fit's uncertainty as if it were.
+  bool repeatsSharpView(const std::vector<cv::Point2f>& corners) const;
   /// Why the board's corners are too near the image's edge to trust, or "" (see
   /// ViewSelectionOptions::min_edge_distance_spacings).
   std::string nearEdge(const std::vector<cv::Point2f>& corners) const;

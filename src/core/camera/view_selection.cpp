@@ -105,6 +105,12 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
     if (d.kept || (sharp && selection_.keep_sharp_views)) {
       refineCorners(gray, board_, board, detector_);
       d.corners = board.corners;
+      if (repeatsSharpView(board.corners)) {
+        d.kept = d.sharp = false;
+        d.reason = "the same corners as an earlier view (a repeated frame)";
+        result.decisions.push_back(d);
+        continue;
+      }
       CalibrationView v;
       v.corners = board.corners;
       v.params = d.params;
@@ -125,6 +131,10 @@ ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
   if (image_size_.area() == 0) image_size_ = image_size;
   ViewDecision d = judge(corners, edge_width_px);
   d.sharp = usableAndSharp(corners, edge_width_px);
+  if ((d.kept || d.sharp) && repeatsSharpView(corners)) {
+    d.kept = d.sharp = false;
+    d.reason = "the same corners as an earlier view (a repeated frame)";
+  }
   if (d.kept || (selection_.keep_sharp_views && d.sharp)) {
     CalibrationView v;
     v.corners = corners;
@@ -146,6 +156,18 @@ bool ViewCollector::usableAndSharp(const std::vector<cv::Point2f>& corners,
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) return false;
   }
   return edge_width_px <= selection_.max_edge_width_px && nearEdge(corners).empty();
+}
+
+bool ViewCollector::repeatsSharpView(const std::vector<cv::Point2f>& corners) const {
+  for (const CalibrationView& v : selection_.keep_sharp_views ? sharp_views_ : views_) {
+    if (v.corners.size() != corners.size()) continue;
+    bool same = true;
+    for (size_t i = 0; same && i < corners.size(); ++i)
+      same = std::abs(v.corners[i].x - corners[i].x) < 1e-3f &&
+             std::abs(v.corners[i].y - corners[i].y) < 1e-3f;
+    if (same) return true;
+  }
+  return false;
 }
 
 std::string ViewCollector::nearEdge(const std::vector<cv::Point2f>& corners) const {

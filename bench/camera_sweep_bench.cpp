@@ -58,24 +58,6 @@ std::string cell(const Errors& e) {
   return buf;
 }
 
-camera::CameraCalibrationConfig cameraConfig(const sim::RobotConfig& robot,
-                                             const sim::WorldConfig& world) {
-  camera::CameraCalibrationConfig cam = camera::loadCameraCalibrationConfig(
-      std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml");
-  cam.board.inner_corners = cv::Size(world.chessboards.front().cols, world.chessboards.front().rows);
-  cam.board.square_size_m = world.chessboards.front().square_m;
-  cam.detector.half_resolution_precheck = false;
-  cam.calibration.initial_camera_matrix = robot.camera.nominal.cameraMatrix();
-  return cam;
-}
-
-camera::SweepRunOptions sweepOptions(const sim::RobotConfig& robot) {
-  camera::SweepRunOptions o;
-  o.sweep.camera_hfov_rad =
-      2 * std::atan(robot.camera.nominal.width / (2 * robot.camera.nominal.fx));
-  return o;
-}
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return std::nan("");
   std::sort(v.begin(), v.end());
@@ -104,7 +86,7 @@ void honesty(const std::string& dir, int seeds) {
     std::string models;
     int done = 0;
     for (int seed = 1; seed <= seeds; ++seed) {
-      camera::SweepRun run(sweepOptions(robot), cameraConfig(robot, world));
+      camera::SweepRun run(test::runOptionsFor(robot), test::cameraConfigFor(world, robot));
       test::SweepInSimOptions so;
       so.seed = static_cast<unsigned>(seed);
       const test::SweepInSim r = test::runSweepInSim(robot, world, run, so);
@@ -168,8 +150,8 @@ int main(int argc, char** argv) {
   for (const Case& c : cases) {
     const sim::RobotConfig robot = sim::loadRobotConfig(dir + c.robot);
     const sim::WorldConfig world = sim::loadWorldConfig(dir + c.world);
-    const camera::CameraCalibrationConfig cam = cameraConfig(robot, world);
-    camera::SweepRun run(sweepOptions(robot), cam);
+    const camera::CameraCalibrationConfig cam = test::cameraConfigFor(world, robot);
+    camera::SweepRun run(test::runOptionsFor(robot), cam);
     test::SweepInSimOptions so;
     so.seed = 7;
     const test::SweepInSim r = test::runSweepInSim(robot, world, run, so);

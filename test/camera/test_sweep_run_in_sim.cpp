@@ -22,25 +22,8 @@ using namespace autocal;
 
 const std::string kSimConfig = std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/";
 
-camera::CameraCalibrationConfig cameraConfigFor(const sim::WorldConfig& world,
-                                                const sim::RobotConfig& robot) {
-  camera::CameraCalibrationConfig c = camera::loadCameraCalibrationConfig(
-      std::string(AUTOCAL_SOURCE_DIR) + "/config/camera_calibration.yaml");
-  c.board.inner_corners = cv::Size(world.chessboards.front().cols, world.chessboards.front().rows);
-  c.board.square_size_m = world.chessboards.front().square_m;
-  c.detector.half_resolution_precheck = false;
-  // What camera_info says (the nominal model), as the node does.
-  c.calibration.initial_camera_matrix = robot.camera.nominal.cameraMatrix();
-  return c;
-}
-
-camera::SweepRunOptions runOptionsFor(const sim::RobotConfig& robot) {
-  camera::SweepRunOptions o;
-  // What camera_info says (the nominal model), as the node does.
-  o.sweep.camera_hfov_rad =
-      2 * std::atan(robot.camera.nominal.width / (2 * robot.camera.nominal.fx));
-  return o;
-}
+using test::cameraConfigFor;
+using test::runOptionsFor;
 
 void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
   ASSERT_TRUE(r.swept) << r.failure;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_run.h"
 #include "autocal/sim/config.h"
 #include "support/stage_in_sim.h"
@@ -41,6 +42,13 @@ struct SweepInSim {
   cv::Size image_size;
   std::vector<std::vector<cv::Point2f>> sharp;  ///< every sharp board seen (refined corners)
 };
+
+/// The shipped camera config as the node uses it with `world`'s boards, starting from what
+/// camera_info says (the robot's nominal model); the half-resolution precheck off.
+camera::CameraCalibrationConfig cameraConfigFor(const sim::WorldConfig& world,
+                                                const sim::RobotConfig& robot);
+/// The stage's options as the node sets them from camera_info (the nominal field of view).
+camera::SweepRunOptions runOptionsFor(const sim::RobotConfig& robot);
 
 /// Runs the stage in `world` with `robot`; `run` is constructed by the caller (options, board).
 SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& world,

@@ -90,10 +90,10 @@ struct CalibrationResult {
   double rms_px = 0;                       ///< over all used corners
   /// Over every corner of the used views, the dropped ones too, each view at its fitted pose and
   /// each corner's residual counted up to CalibrationOptions::model_corner_cap_factor times
-  /// rms_px: how well the
-  /// model explains the corners, outliers included (a model that does not fit the lens drops the
-  /// corners it cannot explain, which lowers rms_px but not this; a corner detected wrong counts
-  /// the same for every model, so none wins by bending towards it) [px].
+  /// rms_px: how well the model explains the corners, outliers included (a model that does not
+  /// fit the lens drops the corners it cannot explain, which lowers rms_px but not this; a corner
+  /// detected wrong counts about the same for every model, so none wins by bending towards it)
+  /// [px].
   double all_corners_rms_px = 0;
   std::vector<int> used_views;             ///< indices into the input views
   std::vector<double> per_view_rms_px;     ///< parallel to used_views

@@ -564,8 +564,9 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
     // plumb_bob lens explained such a corner at 2.6 px and was written 4.2 px off over the image).
     const Points2 projected = project(every_corner, f.rvecs[a], f.tvecs[a], f.intrinsics);
     const Points2& seen = views[static_cast<size_t>(active[a])];
+    const double cap_px = options.model_corner_cap_factor * f.rms_px;
     for (size_t c = 0; c < projected.size(); ++c) {
-      const double e = std::min(cv::norm(projected[c] - seen[c]), options.model_corner_cap_factor * f.rms_px);
+      const double e = std::min(cv::norm(projected[c] - seen[c]), cap_px);
       all_squared += e * e;
       ++all_count;
     }

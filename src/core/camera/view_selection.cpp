@@ -13,6 +13,8 @@ namespace autocal {
 namespace camera {
 
 namespace {
+const char* const kRepeatedFrame = "the same corners as an earlier view (a repeated frame)";
+
 double angleAt(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
   const cv::Point2d ab = a - b, cb = c - b;
   const double cosine = ab.dot(cb) / (cv::norm(ab) * cv::norm(cb));
@@ -107,7 +109,7 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
       d.corners = board.corners;
       if (repeatsSharpView(board.corners)) {
         d.kept = d.sharp = false;
-        d.reason = "the same corners as an earlier view (a repeated frame)";
+        d.reason = kRepeatedFrame;
         result.decisions.push_back(d);
         continue;
       }
@@ -133,7 +135,7 @@ ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
   d.sharp = usableAndSharp(corners, edge_width_px);
   if ((d.kept || d.sharp) && repeatsSharpView(corners)) {
     d.kept = d.sharp = false;
-    d.reason = "the same corners as an earlier view (a repeated frame)";
+    d.reason = kRepeatedFrame;
   }
   if (d.kept || (selection_.keep_sharp_views && d.sharp)) {
     CalibrationView v;

@@ -53,7 +53,9 @@ struct TagMountOptions {
   /// A drive made with the calibrated trim is taken as straight (no turn) unless the tags seen
   /// before and after say it turned by more than this [rad]: a robot's short hops turn by a few
   /// degrees as one wheel starts late (static friction, gearbox play, late commands), and the
-  /// camera's yaw from such a hop needs the turn; below it, one tag's angle is noise.
+  /// camera's yaw from such a hop needs the turn; below it, the tags' angles are noise. For a hop
+  /// whose stills share two tags or more; one tag's angle alone is noisier, and a turn it sees
+  /// counts from √2 times this.
   double max_straight_turn_rad = 0.01;
 
   /// Throws ConfigError naming the bad key.

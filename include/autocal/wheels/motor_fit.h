@@ -36,6 +36,10 @@ struct MotorFitOptions {
   int fit_drives = 8;
   /// A drive off the other drives' line by more than this share is left out [1].
   double max_fit_residual = 0.015;
+  /// A steered drive whose mean duty differs between the two halves of the steady part by more
+  /// than this is left out [duty]: its rate follows the duties late (the motors' lag), and a duty
+  /// still settling is not the one its rate answers.
+  double max_duty_trend = 0.002;
 };
 
 /// One drive as the encoders saw it: commanded duties (their magnitudes are used), when the
@@ -45,7 +49,15 @@ struct DriveRecord {
   bool backward = false;  ///< a drive back
   double start_s = 0, end_s = 0;
   std::vector<std::array<double, 3>> samples;
+  /// A steered drive's commands, (stamp [s], left duty, right duty), in stamp order: from its
+  /// stamp on, each replaces `duties` (magnitudes used). Empty: `duties` throughout.
+  std::vector<std::array<double, 3>> commands;
 };
+
+/// The duty magnitudes a drive commanded on average over [t0_s, t1_s], weighted over time as the
+/// fit's least-squares rate weighs the speed (the middle most); `duties` when the drive holds no
+/// commands or the window is empty.
+WheelDuties meanDuties(const DriveRecord& drive, double t0_s, double t1_s);
 
 class MotorFitter {
  public:

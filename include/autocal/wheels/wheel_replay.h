@@ -148,7 +148,10 @@ class WheelReplay : public Stage {
   WheelRunOptions options_;
   std::set<double> frames_used_;
   std::unique_ptr<markers::TagDetector> detector_;
-  std::vector<Command> commands_;  // in stamp order
+  std::vector<Command> commands_;  // in stamp order, a motion's repeats left out
+  /// Every command of a drive, repeats included, in stamp order: a steered drive back's duties
+  /// vary (DriveRecord::commands).
+  std::vector<Command> drive_commands_;
   std::vector<Reading> readings_;  // in stamp order
   std::vector<Frame> frames_;      // in stamp order
   EncoderTracker encoders_;

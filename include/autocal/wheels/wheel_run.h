@@ -66,6 +66,15 @@ struct WheelRunOptions {
   /// others at drive_speed_mps): with compensate_deadband another speed, so that each wheel's duty
   /// → speed line has two duties in each direction's drives (else the drive speed).
   double back_speed_mps = 0.4;
+  /// Beyond the paper: a drive back retraces the forward drive by the encoders. Each wheel's duty
+  /// above its offset is corrected (PI, opposite ways) so that the wheels' angles keep the forward
+  /// drive's ratio, closing a deviation in about back_steer_s [s] (0: not steered, the duties the
+  /// kinematics give). A motor a few per cent stronger backward than forward, before the motor fit
+  /// tells the directions apart, otherwise turns the robot by tens of degrees over a drive back,
+  /// off the tag line.
+  double back_steer_s = 0.5;
+  /// The largest correction: a share of each wheel's duty above its offset [1].
+  double max_back_steer = 0.25;
   /// Length of one drive (paper §3.4: fixed time) [s], once the trim is close. An uncalibrated
   /// robot one wheel 20 % stronger would turn by a radian over such a drive and lose the tags, so a
   /// drive is shortened (not below min_drive_s) to turn by at most max_drive_turn_rad for the ratio
@@ -261,6 +270,9 @@ class WheelRun : public Stage {
   void startPulse(double turn_rad);
   void startDrive(double now_s, int sign, double speed_mps);
   void stopMotion(double now_s);
+  /// A drive back's duties for now: the base duties corrected so that the wheels retrace the
+  /// forward drive (back_steer_s).
+  void steerBack(double now_s);
   void startMotionClock(double length_s);
   bool settled(double now_s) const;
   /// The duties of a drive back at the speed these forward duties drive (the motor fit's slopes
@@ -322,6 +334,14 @@ class WheelRun : public Stage {
   double last_heading_rad_;
   double heading_before_drive_ = 0;
   double drive_left_angle_rad_ = 0;
+  double drive_right_angle_rad_ = 0;
+  // steering the drive back: the forward drive's right/left wheel-angle ratio (0: not steered),
+  // the nominal wheel speed [rad/s], the deviation's integral [rad s], the last update's time
+  double steer_ratio_ = 0, steer_wheel_radps_ = 0, steer_integral_ = 0, steer_last_s_ = 0;
+  /// The integral's correction each speed's last steered drive back ended with (0: the drive
+  /// speed, 1: the other back speed) [share].
+  double steer_carried_[2] = {0, 0};
+  int steer_slot_ = 0;
   std::vector<markers::TagDetection> last_detections_;
   /// The last frame of the extrinsics' stills (the ground view beside the extrinsics file).
   cv::Mat ground_frame_;

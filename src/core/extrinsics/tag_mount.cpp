@@ -194,7 +194,10 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
         // than from the tags' angles (a few 0.1 deg off, and a tag 0.35 m ahead moves the shift
         // by 6 mm per degree). A larger one is the hop's own (see max_straight_turn_rad).
         straight_drives.push_back({v, p.motion == StillMotion::kForward});
-        if (std::abs(v.turn) <= options.max_straight_turn_rad) {
+        // One tag's angle is the noisier: a turn seen by one tag alone counts from √2 times the
+        // threshold (the mean of two tags' angles has 1/√2 of one's noise).
+        const double threshold = options.max_straight_turn_rad * (v.tags == 1 ? std::sqrt(2.0) : 1.0);
+        if (std::abs(v.turn) <= threshold) {
           straight_drives.back().first.turn = 0;
           straight_drives.back().first.shift = v.shift_straight;
         }

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace autocal {
 namespace wheels {
@@ -93,7 +94,74 @@ double residual(const MotorFitter::Point& p, const MotorFit& f) {
   return std::abs(p.rate - slope * (p.duty - f.offset)) / std::max(p.rate, 1e-9);
 }
 
+/// The slope [ticks/s] of a wheel's readings (time, count) turning at a steady speed, each count
+/// the angle quantised to a tick, [count, count + 1) in ticks: the middle of the slopes of the
+/// lines that pass through every reading's interval; NaN when no line does (the speed varied).
+/// Least squares is no estimate here: at a speed near a whole number of ticks per reading the
+/// quantisation errors do not average out but drift slowly (a saw tooth over the drive), and
+/// two drives at the same duty differed by 0.16 % in rate (a deadband 0.0004 off).
+double quantisedSlope(const std::vector<std::array<double, 2>>& readings, double guess) {
+  if (readings.size() < 5 || !(std::abs(guess) > 0)) return std::nan("");
+  double mean_t = 0;
+  for (const auto& r : readings) mean_t += r[0] / static_cast<double>(readings.size());
+  // The room a slope b leaves the intercept: the lowest interval top less the highest bottom,
+  // each less b·t. Concave in b (a minimum of lines less a maximum of lines).
+  const auto room = [&](double b) {
+    double bottom = -std::numeric_limits<double>::infinity();
+    double top = std::numeric_limits<double>::infinity();
+    for (const auto& r : readings) {
+      const double at = b * (r[0] - mean_t);
+      bottom = std::max(bottom, r[1] - at);
+      top = std::min(top, r[1] + 1 - at);
+    }
+    return top - bottom;
+  };
+  double lo = guess - 0.03 * std::abs(guess), hi = guess + 0.03 * std::abs(guess);
+  for (int i = 0; i < 80; ++i) {  // the peak
+    const double a = lo + (hi - lo) / 3, b = hi - (hi - lo) / 3;
+    if (room(a) < room(b)) lo = a; else hi = b;
+  }
+  const double peak = 0.5 * (lo + hi);
+  if (room(peak) < 0) return std::nan("");
+  const auto edge = [&](double inside, double outside) {  // where the room closes
+    if (room(outside) >= 0) return outside;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (inside + outside);
+      (room(mid) >= 0 ? inside : outside) = mid;
+    }
+    return 0.5 * (inside + outside);
+  };
+  const double span = 0.03 * std::abs(guess);
+  return 0.5 * (edge(peak, peak - span) + edge(peak, peak + span));
+}
+
 }  // namespace
+
+WheelDuties meanDuties(const DriveRecord& drive, double t0_s, double t1_s) {
+  WheelDuties now{std::abs(drive.duties.left), std::abs(drive.duties.right)};
+  if (drive.commands.empty() || !(t1_s > t0_s)) return now;
+  // Weighted as the least-squares slope of the ticks over [t0, t1] weighs the speed: by
+  // (t − t0)(t1 − t), whose integral from t0 is T·u²/2 − u³/3 (u = t − t0, T = t1 − t0).
+  const double T = t1_s - t0_s;
+  const auto weight_to = [&](double t) {
+    const double u = std::clamp(t - t0_s, 0.0, T);
+    return T * u * u / 2 - u * u * u / 3;
+  };
+  double sum_left = 0, sum_right = 0, t = t0_s;
+  for (const auto& c : drive.commands) {
+    if (c[0] >= t1_s) break;
+    if (c[0] > t) {
+      const double w = weight_to(c[0]) - weight_to(t);
+      sum_left += now.left * w, sum_right += now.right * w;
+      t = c[0];
+    }
+    now = {std::abs(c[1]), std::abs(c[2])};
+  }
+  const double w = weight_to(t1_s) - weight_to(t);
+  sum_left += now.left * w, sum_right += now.right * w;
+  const double total = T * T * T / 6;
+  return {sum_left / total, sum_right / total};
+}
 
 void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // The fit is frozen after fit_drives drives: the trim estimator measures k against the offsets
@@ -107,16 +175,22 @@ void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // sample before came from that wheel's message, at its stamp. The other wheel's count in it is
   // the last one that arrived, up to an encoder period older than the stamp, and how the two
   // wheels' messages interleave differs between a live run and its replay.
+  // The rate: the lines through every reading's tick (quantisedSlope), else least squares.
   const auto rate = [&](int wheel, double* out) {
     double n = 0, st = 0, stt = 0, sx = 0, stx = 0;
+    std::vector<std::array<double, 2>> readings;
     for (size_t i = 1; i < drive.samples.size(); ++i) {
       const auto& s = drive.samples[i];
       if (s[0] < t0 || s[0] > t1 || s[wheel] == drive.samples[i - 1][wheel]) continue;
       n += 1, st += s[0], stt += s[0] * s[0], sx += s[wheel], stx += s[0] * s[wheel];
+      readings.push_back({s[0], s[wheel]});
     }
     const double den = n * stt - st * st;
     if (n < 5 || den <= 0) return false;
-    *out = std::abs(2 * M_PI / ticks_per_revolution * (n * stx - st * sx) / den);
+    const double least_squares = (n * stx - st * sx) / den;
+    const double quantised = quantisedSlope(readings, least_squares);
+    *out = std::abs(2 * M_PI / ticks_per_revolution *
+                    (std::isfinite(quantised) ? quantised : least_squares));
     return true;
   };
   double rate_left = 0, rate_right = 0;
@@ -124,8 +198,16 @@ void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // A rate's variance from a window of length T falls as 1/T^3 (quantised ticks, uniform
   // samples): the short first drives weigh little next to the long ones.
   const double weight = std::pow(t1 - t0, 3);
-  points_left_.push_back({std::abs(drive.duties.left), rate_left, weight, drive.backward});
-  points_right_.push_back({std::abs(drive.duties.right), rate_right, weight, drive.backward});
+  // A steered drive's duties varied: its rate answers their mean over the window, once they have
+  // settled.
+  const WheelDuties duties = meanDuties(drive, t0, t1);
+  const double mid = 0.5 * (t0 + t1);
+  const WheelDuties early = meanDuties(drive, t0, mid), late = meanDuties(drive, mid, t1);
+  if (std::abs(late.left - early.left) > options_.max_duty_trend ||
+      std::abs(late.right - early.right) > options_.max_duty_trend)
+    return;
+  points_left_.push_back({duties.left, rate_left, weight, drive.backward});
+  points_right_.push_back({duties.right, rate_right, weight, drive.backward});
   // Beyond the paper: a drive whose rate lies off the line of the others by more than
   // max_fit_residual (a bump, a slipping wheel, a command that came late) is dropped from both
   // wheels' fits, the worst first, while at least four drives remain.

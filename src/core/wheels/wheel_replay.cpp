@@ -52,6 +52,12 @@ WheelReplay::Kind WheelReplay::classify(const WheelDuties& d) {
 
 void WheelReplay::addCommand(double stamp_s, const WheelDuties& duties) {
   const Command c{stamp_s, classify(duties), duties};
+  if (c.kind == Kind::kForward || c.kind == Kind::kBack) {
+    const auto at =
+        std::upper_bound(drive_commands_.begin(), drive_commands_.end(), stamp_s,
+                         [](double t, const Command& o) { return t < o.stamp_s; });
+    drive_commands_.insert(at, c);
+  }
   if (commands_.empty() || stamp_s >= commands_.back().stamp_s) {
     // The same motion commanded again adds nothing (the robot repeats its command at its rate).
     if (commands_.empty() ? c.kind == Kind::kStill : c.kind == commands_.back().kind) return;
@@ -100,6 +106,11 @@ std::vector<WheelReplay::Segment> WheelReplay::segments(bool with_samples) const
     if (!with_samples) break;
     if (s.kind != Kind::kForward && s.kind != Kind::kBack) continue;
     s.drive.end_s = s.end_s;
+    const auto from =
+        std::lower_bound(drive_commands_.begin(), drive_commands_.end(), s.start_s,
+                         [](const Command& o, double t) { return o.stamp_s < t; });
+    for (auto c = from; c != drive_commands_.end() && c->stamp_s < s.end_s; ++c)
+      s.drive.commands.push_back({c->stamp_s, c->duties.left, c->duties.right});
     for (const Reading& r : readings_) {
       if (r.stamp_s >= s.start_s && r.stamp_s < s.end_s) {
         s.drive.samples.push_back({r.stamp_s, r.left, r.right});

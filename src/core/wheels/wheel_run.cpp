@@ -73,6 +73,10 @@ void WheelRunOptions::validate() const {
     throw ConfigError(
         "back_speed_mps: must differ from drive_speed_mps by 0.05 m/s or more to fit the deadband");
   }
+  if (!(back_steer_s == 0 || (back_steer_s >= 0.1 && back_steer_s <= 5)))
+    throw ConfigError("back_steer_s: must be 0 (not steered) or within [0.1, 5] [s]");
+  if (!(max_back_steer > 0 && max_back_steer <= 0.5))
+    throw ConfigError("max_back_steer: must be within (0, 0.5]");
   if (!(drive_s > 0.3 && drive_s < 20)) throw ConfigError("drive_s: must be within (0.3, 20) [s]");
   if (!(min_fit_window_s > 0 && min_fit_window_s <= drive_s - motor_settle_s))
     throw ConfigError("min_fit_window_s: must be within (0, drive_s - motor_settle_s] [s]");
@@ -312,6 +316,7 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   const WheelDuties d = speedsToDuties(p, {w, w});
   drive_sign_ = sign;
   drive_speed_mps_ = speed_mps;
+  steer_ratio_ = 0;
   duties_ = {sign * d.left, sign * d.right};
   motion_ = Motion::kDrive;
   drive_ = DriveRecord();
@@ -424,6 +429,41 @@ void WheelRun::stopMotion(double now_s) {
   stop_s_ = now_s;
 }
 
+void WheelRun::steerBack(double now_s) {
+  // The wheels' angles since the drive back began; e > 0: the right wheel is ahead of the ratio
+  // the forward drive turned them in. Both wheels are corrected by a share c of their duty above
+  // the offset, opposite ways, so de/dt ≈ −2·ω·c; c = (e/τ + ∫e/(2τ²))/ω makes that
+  // e'' + (2/τ)·e' + e/τ² = (the motors' difference), critically damped in about τ, and the
+  // integral takes up a steady difference between the motors (no deviation left at the end).
+  const double rad_per_tick = 2 * M_PI / ticks_per_rev_;
+  const double left = std::abs(encoders_.rawLeft() - drive_start_left_) * rad_per_tick;
+  const double right = std::abs(encoders_.rawRight() - drive_start_right_) * rad_per_tick;
+  const double e = right - steer_ratio_ * left;
+  const double dt = std::max(0.0, now_s - steer_last_s_);
+  steer_last_s_ = now_s;
+  const double tau = options_.back_steer_s;
+  const auto share = [&](double integral) {
+    return (e / tau + integral / (2 * tau * tau)) / steer_wheel_radps_;
+  };
+  // Anti-windup: the integral grows only while the correction is within its bound.
+  if (std::abs(share(steer_integral_ + e * dt)) < options_.max_back_steer) steer_integral_ += e * dt;
+  const double c = std::clamp(share(steer_integral_), -options_.max_back_steer,
+                              options_.max_back_steer);
+  steer_carried_[steer_slot_] = std::clamp(steer_integral_ / (2 * tau * tau) / steer_wheel_radps_,
+                                           -options_.max_back_steer, options_.max_back_steer);
+  const KinematicsParams& p = drive_params_;
+  const auto corrected = [&](double duty, double offset, double by) {
+    if (duty <= offset) return duty;
+    return std::min(p.limit, offset + (duty - offset) * (1 + by));
+  };
+  const WheelDuties d{corrected(drive_.duties.left, p.deadband_left, c),
+                      corrected(drive_.duties.right, p.deadband_right, -c)};
+  duties_ = {-d.left, -d.right};
+  if (drive_.commands.empty() || drive_.commands.back()[1] != d.left ||
+      drive_.commands.back()[2] != d.right)
+    drive_.commands.push_back({now_s, d.left, d.right});
+}
+
 bool WheelRun::settled(double now_s) const {
   return SettleRule{options_.settle_s, options_.still_s, kMaxSettleS}.settled(stop_s_, now_s,
                                                                               encoders_);
@@ -525,6 +565,9 @@ void WheelRun::onMeasured(double now_s) {
         if (after_align_ == WheelRunStage::kLeave) {
           stage_ = WheelRunStage::kLeave;
           startLeave(now_s);
+        } else if (after_align_ == WheelRunStage::kExtrinsics) {
+          stage_ = WheelRunStage::kExtrinsics;
+          startSpin();
         } else {
           stage_ = WheelRunStage::kIterate;
           heading_before_drive_ = m.heading_rad;
@@ -577,10 +620,34 @@ void WheelRun::onMeasured(double now_s) {
         const double back_mps = other_speed ? options_.back_speed_mps : options_.drive_speed_mps;
         const KinematicsParams& p = drive_params_;
         const double w = back_mps / p.radius;
-        const WheelDuties d = backwardDuties(speedsToDuties(p, {w, w}));
+        // Steered until the motor fit tells the directions apart (then its slopes per direction
+        // drive back straight, and the drives back, unsteered, give it clean points), after a
+        // forward drive long enough for its wheels' ratio (a tick is then at most 2 % of it):
+        // from the duties that drive straight forward, with the correction the last steered drive
+        // back at this speed ended with (the motors' difference between the directions, learned;
+        // steady through the drive, so that the motor fit's mean duty is the duty the rate
+        // answers).
+        const double min_angle = 50 * 2 * M_PI / ticks_per_rev_;
+        const double ratio = drive_right_angle_rad_ / drive_left_angle_rad_;
+        const bool directions_told =
+            fitter_.left().per_direction && fitter_.right().per_direction;
+        steer_ratio_ = options_.back_steer_s > 0 && !directions_told &&
+                               drive_left_angle_rad_ > min_angle &&
+                               drive_right_angle_rad_ > min_angle && ratio > 0.5 && ratio < 2
+                           ? ratio
+                           : 0.0;
+        steer_slot_ = other_speed ? 1 : 0;
+        steer_wheel_radps_ = w;
+        steer_integral_ = steer_carried_[steer_slot_] * 2 * options_.back_steer_s *
+                          options_.back_steer_s * w;
+        steer_last_s_ = now_s;
+        const WheelDuties straight = speedsToDuties(p, {w, w});
+        const WheelDuties d = steer_ratio_ > 0 ? straight : backwardDuties(straight);
         duties_ = {-d.left, -d.right};
         drive_sign_ = -1;
-        since_still_ = SinceStill::kBackward;
+        // A steered drive back follows no arc (its correction settles as it goes): the
+        // extrinsics take no motion from it.
+        since_still_ = steer_ratio_ > 0 ? SinceStill::kNone : SinceStill::kBackward;
         motion_ = Motion::kDrive;
         drive_ = DriveRecord();
         drive_.duties = d;
@@ -655,6 +722,8 @@ void WheelRun::onSettled(double now_s) {
       drive_forward_m_ = driveDistanceM();
       creep_m_ += drive_forward_m_;
       drive_left_angle_rad_ = (encoders_.rawLeft() - drive_start_left_) * 2 * M_PI / ticks_per_rev_;
+      drive_right_angle_rad_ =
+          (encoders_.rawRight() - drive_start_right_) * 2 * M_PI / ticks_per_rev_;
       forward_s_ = drive_.end_s - drive_.start_s;
       recordDriveForFit();
       startMeasure(Purpose::kAfterDrive, now_s);
@@ -666,8 +735,10 @@ void WheelRun::onSettled(double now_s) {
       creep_m_ += driveDistanceM();  // negative: a drive back
       recordDriveForFit();
       if (estimator_.converged() && options_.extrinsics_spins > 0 && !extrinsics_done_) {
-        stage_ = WheelRunStage::kExtrinsics;
-        startMeasure(Purpose::kSpin, now_s);
+        // Aligned with the tags first: the drives back retrace the forward drives and keep the
+        // heading they had, and a robot turned away from the tag line sees fewer tags in the
+        // extrinsics' stills.
+        startAlign(WheelRunStage::kExtrinsics);
       } else if (estimator_.converged()) {
         startAlign(WheelRunStage::kLeave);
       } else {
@@ -755,6 +826,8 @@ WheelDuties WheelRun::update(double now_s) {
         stopMotion(now_s);
         if (stage_ != WheelRunStage::kExtrinsics)
           purpose_ = drive_sign_ > 0 ? Purpose::kAfterForward : Purpose::kAfterBack;
+      } else if (drive_sign_ < 0 && steer_ratio_ > 0) {
+        steerBack(now_s);
       }
       break;
     case Motion::kSettle:
@@ -772,6 +845,7 @@ double WheelRun::progress() const {
     case WheelRunStage::kWaitForData:
       return 0.0;
     case WheelRunStage::kAlign:
+      if (after_align_ == WheelRunStage::kExtrinsics) return 0.8;
       return after_align_ == WheelRunStage::kLeave ? 0.85 : 0.05 + 0.05 * std::min(iteration_, 1);
     case WheelRunStage::kIterate:
       return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);

@@ -461,8 +461,7 @@ TEST(WheelRunInSim, ForwardAndBackwardGainsDiffer) {
 TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   // Started alone, without the camera stage's minimum duties: the offsets start at 0, a tenth of
   // a duty under the truth, and the first drives' ratio depends on their speed until the fit has
-  // the offsets. Up to 12 drives (10 or 12, the drives back steered or not, as they leave the
-  // robot).
+  // the offsets: up to 12 drives.
   const sim::RobotConfig robot = variant(1.0, 1.08, 0.0325, 0.0318, 0.1);
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld(), 12);
 }
@@ -635,23 +634,29 @@ double worstTurnDeg(const std::vector<double>& turns) {
 // Motors 4 % slower backward on the left and 4 % faster on the right: before the motor fit tells
 // the directions apart, a drive back with the forward drive's duties turned the robot by 22
 // degrees (in robot mode by 30, which left it 0.19 m beside the tag line, and the next alignment
-// found no tag). The drives back retrace the forward drives by the encoders (back_steer_s); not
-// steered, the same robot turns.
+// found no tag). Steered by the encoders (back_steer_s, off by default), the drives back retrace
+// the forward drives; not steered, the same robot turns.
 TEST(WheelRunInSim, DrivesBackRetraceWhenBackwardGainsDifferMuch) {
   sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
   robot.backward_gain_ratio_left = 0.96;
   robot.backward_gain_ratio_right = 1.04;
-  const Outcome o = calibrateAndValidate(robot, defaultWorld(), robot.deadband + 0.007);
-  expectCalibrated(o, defaultWorld());
-  const std::vector<double> steered = turnsOverDrivesBack(o.run);
-  EXPECT_GE(steered.size(), o.run.iterations.size());
+  wheels::WheelRunOptions options = optionsFor(robot, robot.deadband + 0.007);
+  options.back_steer_s = 0.5;
+  wheels::WheelRun steered_run(options, robot.camera.truth);
+  const test::WheelsInSim run = test::runWheelsInSim(robot, defaultWorld(), steered_run, {});
+  ASSERT_TRUE(run.done) << run.failure;
+  for (const test::StraightDrift& d : test::straightDrifts(robot, run.result))
+    EXPECT_LE(d.drift_m, d.bound_m) << "at " << d.speed_mps << " m/s";
+  const std::vector<double> steered = turnsOverDrivesBack(run);
+  EXPECT_GE(steered.size(), run.iterations.size());
   EXPECT_LE(worstTurnDeg(steered), 3.0);
 
   wheels::WheelRunOptions open = optionsFor(robot, robot.deadband + 0.007);
   open.back_steer_s = 0;
-  wheels::WheelRun run(open, robot.camera.truth);
-  const test::WheelsInSim not_steered = test::runWheelsInSim(robot, defaultWorld(), run, {});
+  wheels::WheelRun open_run(open, robot.camera.truth);
+  const test::WheelsInSim not_steered = test::runWheelsInSim(robot, defaultWorld(), open_run, {});
   std::printf("worst turn over a drive back: steered %.1f deg, not steered %.1f deg\n",
               worstTurnDeg(steered), worstTurnDeg(turnsOverDrivesBack(not_steered)));
   EXPECT_GT(worstTurnDeg(turnsOverDrivesBack(not_steered)), 3 * worstTurnDeg(steered));
 }
+

@@ -660,3 +660,24 @@ TEST(WheelRunInSim, DrivesBackRetraceWhenBackwardGainsDifferMuch) {
   EXPECT_GT(worstTurnDeg(turnsOverDrivesBack(not_steered)), 3 * worstTurnDeg(steered));
 }
 
+
+// A motor fit that takes only drives of 2 s (min_fit_window_s) forms no line here: until the
+// deadbands are fitted the drives are short, for the ratio the speed changes (in robot mode, steered
+// drives back whose duties were still settling kept a fit from forming). The trim converges all
+// the same. The stage must not write the guesses as the deadbands (here 0 for a truth of 0.1):
+// it drives forward and back max_fit_cycles more times for the fit, then FAILS saying why.
+TEST(WheelRunInSim, NoMotorFitAfterTheTrimConvergedFailsRatherThanWriteTheGuesses) {
+  const sim::RobotConfig robot = variant(1.0, 1.0, 0.0318, 0.0318, 0.1);
+  wheels::WheelRunOptions options = optionsFor(robot, 0.0);
+  options.min_fit_window_s = 2.0;
+  wheels::WheelRun run(options, robot.camera.truth);
+  const test::WheelsInSim refused = test::runWheelsInSim(robot, defaultWorld(), run, {});
+  EXPECT_FALSE(refused.done);
+  EXPECT_NE(refused.failure.find("the motor fit found no deadband for the left and right wheels "
+                                 "after the trim converged and 4 more drives"),
+            std::string::npos)
+      << refused.failure;
+  ASSERT_TRUE(run.estimator().converged());
+  // The truth drove back after every drive of the iteration and the fit's four more.
+  EXPECT_GE(turnsOverDrivesBack(refused).size(), run.estimator().history().size() + 4);
+}

@@ -79,6 +79,10 @@ struct WheelRunOptions {
   double back_steer_s = 0.0;
   /// The largest correction: a share of each wheel's duty above its offset [1].
   double max_back_steer = 0.25;
+  /// With compensate_deadband, when the trim converges before the motor fit has a line for each
+  /// wheel, up to this many more drives forward and back for the fit alone; then FAILED rather
+  /// than the deadband guesses written as the robot's.
+  int max_fit_cycles = 4;
   /// Length of one drive (paper §3.4: fixed time) [s], once the trim is close. An uncalibrated
   /// robot one wheel 20 % stronger would turn by a radian over such a drive and lose the tags, so a
   /// drive is shortened (not below min_drive_s) to turn by at most max_drive_turn_rad for the ratio
@@ -257,6 +261,10 @@ class WheelRun : public Stage {
   StageResult finish(const StageOutput& output) override;
 
  private:
+  /// The deadbands are compensated but some wheel's line has not formed yet.
+  bool motorFitPending() const;
+  /// The wheels without a line, in words.
+  const char* missingFitWheels() const;
   enum class Motion { kNone, kPulse, kSpin, kDrive, kSettle, kMeasure };
   enum class Purpose {
     kAlign,
@@ -365,6 +373,7 @@ class WheelRun : public Stage {
 
   // iterating / leaving
   int iteration_ = 0;
+  int fit_cycles_ = 0;  ///< drives forward and back for the motor fit after the trim converged
   int drives_without_tags_ = 0;
   double last_delta_theta_rad_ = 0;
   double leave_start_left_ = 0;

@@ -381,6 +381,14 @@ const WheelReplayResult& WheelReplay::finalResult() {
                            std::to_string(r.iterations.size()) + " updates over " +
                            std::to_string(r.drives) + " drives): nothing written");
   }
+  if (options_.compensate_deadband && !(r.left.valid && r.right.valid)) {
+    throw CalibrationError(std::string("the replayed motor fit found no deadband for the ") +
+                           (!r.left.valid && !r.right.valid ? "left and right wheels"
+                            : r.left.valid                  ? "right wheel"
+                                                            : "left wheel") +
+                           " (" + std::to_string(r.drives) +
+                           " drives): nothing written rather than the guesses");
+  }
   final_ = std::make_unique<WheelReplayResult>(std::move(r));
   return *final_;
 }

@@ -77,6 +77,8 @@ void WheelRunOptions::validate() const {
     throw ConfigError("back_steer_s: must be 0 (not steered) or within [0.1, 5] [s]");
   if (!(max_back_steer > 0 && max_back_steer <= 0.5))
     throw ConfigError("max_back_steer: must be within (0, 0.5]");
+  if (!(max_fit_cycles >= 0 && max_fit_cycles <= 20))
+    throw ConfigError("max_fit_cycles: must be within [0, 20]");
   if (!(drive_s > 0.3 && drive_s < 20)) throw ConfigError("drive_s: must be within (0.3, 20) [s]");
   if (!(min_fit_window_s > 0 && min_fit_window_s <= drive_s - motor_settle_s))
     throw ConfigError("min_fit_window_s: must be within (0, drive_s - motor_settle_s] [s]");
@@ -250,6 +252,15 @@ KinematicsParams WheelRun::driveParams() const {
 }
 
 KinematicsParams WheelRun::result() const { return driveParams(); }
+
+bool WheelRun::motorFitPending() const {
+  return options_.compensate_deadband && !(fitter_.left().valid && fitter_.right().valid);
+}
+
+const char* WheelRun::missingFitWheels() const {
+  if (!fitter_.left().valid && !fitter_.right().valid) return "left and right wheels";
+  return fitter_.left().valid ? "right wheel" : "left wheel";
+}
 
 double WheelRun::driveSeconds(double speed_mps) const {
   // A ratio error e turns the robot by about e·distance/baseline over a drive.
@@ -596,6 +607,10 @@ void WheelRun::onMeasured(double now_s) {
           fail("the floor tags were lost after " + std::to_string(drives_without_tags_) +
                " drives in a row: the tag field is too short for drive_s, or the robot leaves it");
         }
+      } else if (estimator_.converged()) {
+        // A drive for the motor fit alone (motorFitPending): the trim is final.
+        drives_without_tags_ = 0;
+        last_delta_theta_rad_ = wrapAngle(m.heading_rad - heading_before_drive_);
       } else {
         drives_without_tags_ = 0;
         last_delta_theta_rad_ = wrapAngle(m.heading_rad - heading_before_drive_);
@@ -734,7 +749,20 @@ void WheelRun::onSettled(double now_s) {
     case Purpose::kAfterBack:
       creep_m_ += driveDistanceM();  // negative: a drive back
       recordDriveForFit();
-      if (estimator_.converged() && options_.extrinsics_spins > 0 && !extrinsics_done_) {
+      if (estimator_.converged() && motorFitPending()) {
+        if (fit_cycles_ >= options_.max_fit_cycles) {
+          fail("the motor fit found no deadband for the " + std::string(missingFitWheels()) +
+               " after the trim converged and " + std::to_string(fit_cycles_) +
+               " more drives forward and back (max_fit_cycles): its drives' rates did not lie on "
+               "a line with a deadband between 0 and the largest offset (a wheel slipping, a "
+               "drive's duties still settling); nothing written rather than the guesses");
+          return;
+        }
+        // The trim converged before both wheels' lines formed: the guesses would be written as
+        // the deadbands. More drives forward and back, for the fit alone.
+        ++fit_cycles_;
+        startMeasure(Purpose::kBeforeDrive, now_s);
+      } else if (estimator_.converged() && options_.extrinsics_spins > 0 && !extrinsics_done_) {
         // Aligned with the tags first: the drives back retrace the forward drives and keep the
         // heading they had, and a robot turned away from the tag line sees fewer tags in the
         // extrinsics' stills.

@@ -59,6 +59,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("back_speed_mps", r.back_speed_mps);
   p.get("back_steer_s", r.back_steer_s);
   p.get("max_back_steer", r.max_back_steer);
+  p.get("max_fit_cycles", r.max_fit_cycles);
   p.get("drive_s", r.drive_s);
   p.get("min_drive_s", r.min_drive_s);
   p.get("max_drive_turn_rad", r.max_drive_turn_rad);

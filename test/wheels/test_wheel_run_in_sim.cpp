@@ -670,6 +670,7 @@ TEST(WheelRunInSim, NoMotorFitAfterTheTrimConvergedFailsRatherThanWriteTheGuesse
   const sim::RobotConfig robot = variant(1.0, 1.0, 0.0318, 0.0318, 0.1);
   wheels::WheelRunOptions options = optionsFor(robot, 0.0);
   options.min_fit_window_s = 2.0;
+  options.back_steer_s = 0;  // unsteered: these drives back measured heading changes that agree
   wheels::WheelRun run(options, robot.camera.truth);
   const test::WheelsInSim refused = test::runWheelsInSim(robot, defaultWorld(), run, {});
   EXPECT_FALSE(refused.done);

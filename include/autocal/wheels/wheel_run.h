@@ -71,12 +71,10 @@ struct WheelRunOptions {
   /// drive's ratio, closing a deviation in about back_steer_s [s] (0: not steered, the duties the
   /// kinematics give). A motor a few per cent stronger backward than forward, before the motor fit
   /// tells the directions apart, otherwise turns the robot by tens of degrees over a drive back,
-  /// off the tag line. Off by default (0) while it is not robust: on a robot-mode robot with
-  /// static friction and motors 8 % apart between the directions, the steered drives' points
-  /// kept the motor fit from forming (their duties still settling), the trim converged in 5
-  /// drives first, and the stage wrote the deadband guesses; in the core harness the first fit
-  /// of such a robot came out 0.14/0.07 for 0.11. 0.5 is the value tested.
-  double back_steer_s = 0.0;
+  /// off the tag line. A steered drive enters the motor fit once its duties have settled
+  /// (max_duty_trend); should the trim converge before the fit has a line for each wheel, the
+  /// stage drives on for it (max_fit_cycles).
+  double back_steer_s = 0.5;
   /// The largest correction: a share of each wheel's duty above its offset [1].
   double max_back_steer = 0.25;
   /// With compensate_deadband, when the trim converges before the motor fit has a line for each

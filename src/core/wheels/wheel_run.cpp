@@ -894,6 +894,7 @@ std::string WheelRun::describe() const {
        " (trim " +
        formatNumber(trimFromSpeedRatio(estimator_.ratio(), options_.kinematics.gain), 4) + ")";
   if (iteration_ > 0) s += ", last dtheta " + deg(last_delta_theta_rad_);
+  if (fit_cycles_ > 0) s += ", motor fit drive " + std::to_string(fit_cycles_);
   if (std::isfinite(last_heading_rad_)) s += ", heading " + deg(last_heading_rad_);
   if (fitter_.left().valid && fitter_.right().valid) {
     s += ", deadband " + formatNumber(fitter_.left().offset, 4) + "/" +

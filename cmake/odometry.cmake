@@ -63,7 +63,7 @@ if(CATKIN_ENABLE_TESTING)
   add_dependencies(tests test_odometry_node)
   add_rostest(test/odometry/odometry_node.test
     DEPENDENCIES test_odometry_node odometry_calibration_node straight_length_helper sim_node)
-  # Issue 11 asks for several robots through ROS: a Duckiebot with its left wheel 2 % larger and
+  # More robots through ROS: a Duckiebot with its left wheel 2 % larger and
   # the larger robot (wheelbase 0.3 m, radius 0.05 m; told a nominal wheelbase of 0.29 m; 300 s of
   # sim time). All at real_time_factor 0, the simulator in lockstep (0.02 s) with the node.
   add_rostest(test/odometry/odometry_node.test

@@ -159,7 +159,10 @@ int run(int argc, char** argv) {
   y << "turns:\n";
   size_t t = 0;
   for (const UahReplayMotion& motion : replay.motions) {
-    if (motion.experiment == UahExperiment::kStraight) continue;
+    if (motion.experiment == UahExperiment::kStraight ||
+        motion.experiment == UahExperiment::kFace) {
+      continue;  // the turn back to the starting heading measures nothing
+    }
     const UahTurn& turn = replay.turns.at(t++);
     y << "  - {experiment: " << name(turn.experiment)
       << ", start_s: " << formatNumber(motion.start_s, 7)

@@ -102,7 +102,8 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
       run_start = simulation.pose();
       // Only the forward runs: a run back starts where the one before ended, turned by its drift.
       if (run.straightRun() % 2 == 1) {
-        out.straight_start_yaw_rad.push_back(std::remainder(run_start.yaw_rad - start_yaw, 2 * M_PI));
+        out.straight_start_yaw_rad.push_back(
+            std::remainder(run_start.yaw_rad - start_yaw, 2 * M_PI));
       }
     }
     was_driving = driving;
@@ -139,6 +140,7 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
   out.done = run.done();
   if (out.done) out.result = run.result();
   out.turns = run.turns();
+  out.face_turns = run.faceTurns();
   out.straight_runs = run.straightRuns();
   out.sim_s = simulation.time_s() - t0;
   out.wall_s = r.wall_s;
@@ -195,8 +197,8 @@ std::vector<OdometryTestRobot> odometryTestRobots() {
   std::vector<OdometryTestRobot> robots;
   robots.push_back(
       {"default (robot_ideal.yaml: r_R +1.3 %, b 0.102)",
-       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml"), 0.0318,
-       0.1});
+       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot_ideal.yaml"),
+       0.0318, 0.1});
   robots.push_back(
       {"left wheel +2 %, b 0.109", variant(0.0325, 0.03185, 0.109, 0.95, 1.0, 0.12), 0.0318, 0.1});
   robots.push_back(

@@ -40,6 +40,7 @@ struct UahInSim : OdometryInSim {
   /// The robot's true heading at the start of each straight run minus its heading at the start of
   /// the run [rad, within ±π] (the turns end on whole rounds: about 0).
   std::vector<double> straight_start_yaw_rad;
+  int face_turns = 0;  ///< turns back to the starting heading before the straight runs
   odometry::UahResult result;
   std::vector<odometry::UahTurn> turns;              ///< also when the run failed
   std::vector<odometry::StraightRun> straight_runs;  ///< also when the run failed

@@ -7,6 +7,12 @@
 //                        times give Ed (§2.2);
 //   spin                 both wheels at the same pulse rate, opposite: the spin-in-place pulses
 //                        per round give the wheelbase (§2.3);
+//   face                 the turns end on whole rounds only as closely as they stop: each one's
+//                        pulses over its own pulses per round say how far it turned past them, and
+//                        when those fractions add up to more than face_tolerance_rad the robot
+//                        pivots the long way round (a round less the sum) on one wheel, until it
+//                        faces the heading it had when the stage began (the free line the straight
+//                        runs need: a robot 18 deg off it rubbed a wall and came out 1.6 % short);
 //   straight             straight runs of about straight_length_m (by the nominal right wheel),
 //                        alternately forward and back on the same line, heading held by the
 //                        encoders with the Ed just found; after each the caller gives the run's
@@ -58,12 +64,18 @@ struct UahRunOptions : EncoderDriveOptions {
   StraightRunOptions straight;
   /// Heading hold on the straight runs: left duty += gain·(N_R − N_L/Ed) [duty/pulse], plus its
   /// integral [duty/(pulse·s)]. Gentle: a robot's readings and commands come 50-100 ms late, and
-  /// twice these gains made its heading swing by a pulse either way (runs over 2 deg, on robot.yaml).
+  /// twice these gains made its heading swing by a pulse either way (runs over 2 deg, on
+  /// robot.yaml).
   double heading_gain_duty_per_pulse = 0.005;
   double heading_integral_duty_per_pulse_s = 0.015;
   /// A given length this far from the one the nominal pulses say means a cut-short run or a wrong
   /// measurement [fraction].
   double max_length_mismatch = 0.25;
+  /// After the turns the robot pivots round until it faces its starting heading within this
+  /// [rad] (a pivot pulse is about 0.8 deg on a Duckiebot), in at most max_face_turns turns; after
+  /// them it goes on within three times this, and fails beyond.
+  double face_tolerance_rad = 3.0 * M_PI / 180.0;
+  int max_face_turns = 6;
   /// Forward straight runs stop and fail when a valid range reading is this close [m].
   double min_clearance_m = 0.12;
   /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
@@ -93,11 +105,13 @@ enum class UahExperiment {
   kPivotLeftStopped,
   kPivotRightStopped,
   kSpin,
+  kFace,
   kStraight,
   kDone,
   kFailed
 };
-/// "wait", "pivot_left_stopped", "pivot_right_stopped", "spin", "straight", "done", "failed".
+/// "wait", "pivot_left_stopped", "pivot_right_stopped", "spin", "face", "straight", "done",
+/// "failed".
 const char* name(UahExperiment experiment);
 
 /// One turning experiment's outcome.
@@ -155,9 +169,11 @@ class UahRun : public Stage {
   /// 0..1, a rough share of the run done.
   double progress() const;
   double elapsedS() const { return drive_.elapsedS(); }
+  /// Turns back to the starting heading made after the spin (see `face`).
+  int faceTurns() const { return face_turns_; }
   /// One line: experiment, counts, last figures.
   std::string describe() const;
-  /// Step: the experiment; key: round, straight run and the wait for its length.
+  /// Step: the experiment; key: round, straight run, the wait for its length, face turn.
   StageStatus status() const override;
   /// Writes <calibration_root>/odometry/<veh>.yaml (its quality gate first); valid once done().
   StageResult finish(const StageOutput& output) override;
@@ -168,6 +184,14 @@ class UahRun : public Stage {
   [[noreturn]] void fail(const std::string& why);
   void startTurn(UahExperiment experiment, double now_s);
   void startStraight(double now_s);
+  /// After the spin: a face turn when the turns left the robot off its starting heading, else the
+  /// straight runs.
+  void faceOrStraight(double now_s);
+  WheelDuties updateFace(double now_s, double dt_s);
+  /// The face turn's pulses per round: the mean of the pivots on the wheel it stops.
+  double facePulsesPerRound() const;
+  /// coast_s_'s entry for the turn under way.
+  int coastIndex() const;
   void stop(double now_s);
   /// One control step of a turn (pivots and the spin, §2.1) or of a straight run (§2.3).
   WheelDuties updateTurn(double now_s, double dt_s);
@@ -211,17 +235,24 @@ class UahRun : public Stage {
   std::vector<std::array<double, 2>> ranges_;  // stamp, range
   int invalid_ranges_ = 0;
   double online_ppr_ = 0, next_check_pulses_ = 0, turn_target_pulses_ = 0;
-  // A turn ends on whole rounds, so that the robot faces where it did before (the straight runs
-  // go where the spin leaves it): it stops early by the time the last turn coasted on after its
-  // stop [s] (the wheels' lag, and on a robot the commands' and the readings' delays). Where and
-  // at which rate the last stop was decided.
-  double coast_s_ = 0.05, stop_pulses_ = 0, stop_rate_ = 0;
+  // A turn ends on whole rounds, so that the robot faces where it did before (the face turn makes
+  // up what is left): it stops early by the time the last turn of its kind coasted on after its
+  // stop [s] (the wheels' lag, and on a robot the commands' and the readings' delays): the left
+  // wheel's pivots (right one stopped), the right wheel's, the spin (coastIndex()). Where and at
+  // which rate the last stop was decided.
+  double coast_s_[3] = {0.05, 0.05, 0.05}, stop_pulses_ = 0, stop_rate_ = 0;
   std::string last_detection_error_;
   std::vector<double> right_ppr_left_stopped_, left_ppr_right_stopped_;
   double Ed_ = 1.0;
   double spin_ppr_ = 0;
   std::vector<UahTurn> turns_;
   double spin_duty_[2] = {0, 0};
+  /// The heading against the stage's start, from each turn's pulses over its pulses per round
+  /// (counter-clockwise positive) [rad]; the face turn under way: its direction (+1
+  /// counter-clockwise), its target on the spin's pulse axis, the turns made.
+  double heading_rad_ = 0;
+  int face_dir_ = 1, face_turns_ = 0;
+  double face_target_pulses_ = 0;
 
   // straight
   int straight_dir_ = 1;

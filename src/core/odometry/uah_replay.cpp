@@ -28,7 +28,7 @@ std::string at(double t_s) { return formatNumber(t_s, 5) + " s"; }
 
 UahExperiment experimentFromPhase(const std::string& phase) {
   for (UahExperiment e : {UahExperiment::kPivotLeftStopped, UahExperiment::kPivotRightStopped,
-                          UahExperiment::kSpin, UahExperiment::kStraight}) {
+                          UahExperiment::kSpin, UahExperiment::kFace, UahExperiment::kStraight}) {
     if (phase == std::string("odometry/") + name(e)) return e;
   }
   return UahExperiment::kWait;
@@ -43,6 +43,8 @@ bool commandsFit(UahExperiment e, double left, double right) {
       return left > 0 && right == 0;
     case UahExperiment::kSpin:
       return left < 0 && right > 0;
+    case UahExperiment::kFace:  // a pivot back on either stopped wheel
+      return (left == 0 && right > 0) || (left > 0 && right == 0);
     case UahExperiment::kStraight:  // the heading hold may take the left duty to 0
       return left * right >= 0;
     default:
@@ -259,6 +261,11 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     }
     const Sample start = history.front();
 
+    if (m.experiment == UahExperiment::kFace) {
+      // The turn back to the starting heading measures nothing.
+      out.motions.push_back(m);
+      continue;
+    }
     if (m.experiment == UahExperiment::kStraight) {
       m.straight_run = ++straight_index;
       out.motions.push_back(m);

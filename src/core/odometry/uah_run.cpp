@@ -31,6 +31,8 @@ const char* name(UahExperiment experiment) {
       return "pivot_right_stopped";
     case UahExperiment::kSpin:
       return "spin";
+    case UahExperiment::kFace:
+      return "face";
     case UahExperiment::kStraight:
       return "straight";
     case UahExperiment::kDone:
@@ -62,6 +64,10 @@ void UahRunOptions::validate() const {
   checkConfig(straight_ramp_s > 0, "straight_ramp_s", "must be > 0 [s]");
   checkConfig(max_length_mismatch > 0 && max_length_mismatch < 1, "max_length_mismatch",
               "must be within (0, 1)");
+  checkConfig(face_tolerance_rad > 0 && face_tolerance_rad < M_PI / 2, "face_tolerance_rad",
+              "must be within (0, pi/2) [rad]");
+  checkConfig(max_face_turns >= 0 && max_face_turns <= 20, "max_face_turns",
+              "must be within [0, 20] (0: the straight runs go where the spin leaves the robot)");
   checkConfig(min_clearance_m >= 0, "min_clearance_m", "must be >= 0 [m]");
   checkConfig(max_decorrelation_fraction > 0 && max_decorrelation_fraction <= 0.5,
               "max_decorrelation_fraction", "must be within (0, 0.5]");
@@ -161,6 +167,8 @@ double UahRun::turnPulses(const EncoderDrive::Sample& s) const {
       return dr;
     case UahExperiment::kPivotRightStopped:
       return dl;
+    case UahExperiment::kFace:  // a pivot: the moving wheel
+      return face_dir_ > 0 ? dr : dl;
     default:
       // The spin turns by (N_R·c_R − N_L·c_L)/b = c_R·(N_R − N_L/Ed)/b (N_L < 0 here). On the pulse
       // axis p = (N_R − N_L/Ed)·Ed/(1 + Ed) a round is 2π·b/(c_L + c_R) pulses whether or not the
@@ -304,6 +312,12 @@ void UahRun::finishTurn() {
   }
   turns_.push_back(turn);
   const double ppr = turn.detection.pulses_per_round;
+  // The turn's angle by its own pulses per round: whole rounds and what it coasted past them. A
+  // pivot on the stopped left wheel and the spin turn counter-clockwise, a pivot on the stopped
+  // right wheel clockwise.
+  const double sign = experiment_ == UahExperiment::kPivotRightStopped ? -1.0 : 1.0;
+  heading_rad_ =
+      std::remainder(heading_rad_ + sign * 2 * M_PI * turn.pulses_turned / ppr, 2 * M_PI);
   switch (experiment_) {
     case UahExperiment::kPivotLeftStopped:
       right_ppr_left_stopped_.push_back(ppr);
@@ -321,8 +335,7 @@ void UahRun::finishTurn() {
 
 void UahRun::nextAfterTurns(double now_s) {
   if (experiment_ == UahExperiment::kSpin) {
-    straight_dir_ = 1;
-    startStraight(now_s);
+    faceOrStraight(now_s);
     return;
   }
   // Alternate the stopped wheel (§2.2): left, right, left, right, ...
@@ -341,11 +354,95 @@ void UahRun::nextAfterTurns(double now_s) {
   }
 }
 
+void UahRun::faceOrStraight(double now_s) {
+  const double off = std::abs(heading_rad_);
+  // A robot whose wheels break away with a jump turns by some degrees at the least and may swing
+  // about the heading: after max_face_turns it goes on within three tolerances (a 3 m run then
+  // ends at most 0.5 m off the line), and fails beyond.
+  const bool last = face_turns_ >= options_.max_face_turns;
+  if (off <= options_.face_tolerance_rad || options_.max_face_turns == 0 ||
+      (last && off <= 3 * options_.face_tolerance_rad)) {
+    straight_dir_ = 1;
+    startStraight(now_s);
+    return;
+  }
+  if (last) {
+    fail("the robot could not turn back to the heading it had when the stage began: still " +
+         deg(off) + " off after " + std::to_string(face_turns_) +
+         " turns (max_face_turns; within " + deg(3 * options_.face_tolerance_rad) +
+         " needed): the straight runs need the free line it faced");
+  }
+  ++face_turns_;
+  experiment_ = UahExperiment::kFace;
+  motion_ = Motion::kTurn;
+  drive_.startMotion(now_s, options_.start_duty);
+  drive_.restartSamples();
+  start_left_ = encoders().left(), start_right_ = encoders().right();
+  // A pivot the long way round, by a round less the offset: a turn of a few degrees stops
+  // wherever its wheel's breakaway and the late readings leave it (a robot swung 10-25 deg either
+  // way about the heading), a pivot at its rate stops as the experiments' pivots do (0.5-2 deg
+  // off). Counter-clockwise on the stopped left wheel, clockwise on the stopped right one, by the
+  // pulses per round that wheel's pivots measured.
+  face_dir_ = heading_rad_ > 0 ? 1 : -1;
+  face_target_pulses_ = (2 * M_PI - off) / (2 * M_PI) * facePulsesPerRound();
+}
+
+int UahRun::coastIndex() const {
+  switch (experiment_) {
+    case UahExperiment::kPivotRightStopped:
+      return 0;
+    case UahExperiment::kPivotLeftStopped:
+      return 1;
+    case UahExperiment::kFace:
+      return face_dir_ > 0 ? 1 : 0;
+    default:
+      return 2;
+  }
+}
+
+double UahRun::facePulsesPerRound() const {
+  const std::vector<double>& ppr =
+      face_dir_ > 0 ? right_ppr_left_stopped_ : left_ppr_right_stopped_;
+  double sum = 0;
+  for (double v : ppr) sum += v;
+  return sum / ppr.size();
+}
+
+WheelDuties UahRun::updateFace(double now_s, double dt_s) {
+  const double p = turnPulses(drive_.samples().back());
+  const double rate = options_.pivot_rate_pulses_per_s;
+  // As the pivots stop on their rounds: early by the turns' coast at their rate.
+  if (p >= face_target_pulses_ - coast_s_[coastIndex()] * rate) {
+    stop_pulses_ = p, stop_rate_ = rate;
+    stop(now_s);
+    return duties_;
+  }
+  // Counter-clockwise: the right wheel drives; clockwise: the left one.
+  const int side = face_dir_ > 0 ? 1 : 0;
+  follow(side, rate, dt_s);
+  checkStall(side, now_s);
+  duties_ = {side == 0 ? drive_.duty(0) : 0.0, side == 1 ? drive_.duty(1) : 0.0};
+  return duties_;
+}
+
 void UahRun::onSettled(double now_s) {
+  if (experiment_ == UahExperiment::kFace) {
+    // Where the turn back really ended, encoders still: turn again if it is still off.
+    const double p = turnPulses(drive_.samples().back());
+    heading_rad_ =
+        std::remainder(heading_rad_ + face_dir_ * 2 * M_PI * p / facePulsesPerRound(), 2 * M_PI);
+    if (stop_rate_ > 0) {
+      coast_s_[coastIndex()] = std::clamp((p - stop_pulses_) / stop_rate_, 0.0, 1.0);
+    }
+    faceOrStraight(now_s);
+    return;
+  }
   if (isTurn(experiment_)) {
     // How long this turn coasted on after its stop: the next ones stop that much earlier.
     const double p = turnPulses(drive_.samples().back());
-    if (stop_rate_ > 0) coast_s_ = std::clamp((p - stop_pulses_) / stop_rate_, 0.0, 1.0);
+    if (stop_rate_ > 0) {
+      coast_s_[coastIndex()] = std::clamp((p - stop_pulses_) / stop_rate_, 0.0, 1.0);
+    }
     finishTurn();
     nextAfterTurns(now_s);
     return;
@@ -447,6 +544,7 @@ WheelDuties UahRun::update(double now_s) {
   }
   if (motion_ == Motion::kNone) return {};
   drive_.clock().start(now_s);
+  if (experiment_ == UahExperiment::kFace) return updateFace(now_s, dt);
   return motion_ == Motion::kTurn ? updateTurn(now_s, dt) : updateStraight(now_s, dt);
 }
 
@@ -483,8 +581,8 @@ WheelDuties UahRun::updateTurn(double now_s, double dt_s) {
   }
   const double rate = experiment_ == UahExperiment::kSpin ? options_.spin_rate_pulses_per_s
                                                           : options_.pivot_rate_pulses_per_s;
-  // Stop early by the time the last turn coasted on after its stop (see coast_s_).
-  if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - coast_s_ * rate) {
+  // Stop early by the time the last turn of its kind coasted on after its stop (see coast_s_).
+  if (turn_target_pulses_ > 0 && p >= turn_target_pulses_ - coast_s_[coastIndex()] * rate) {
     stop_pulses_ = p, stop_rate_ = rate;
     stop(now_s);
     return duties_;
@@ -563,6 +661,9 @@ std::string UahRun::describe() const {
     s += " round " + std::to_string(std::min(round(), options_.rounds + 1)) + "/" +
          std::to_string(options_.rounds + 1);
     if (online_ppr_ > 0) s += ", " + formatNumber(online_ppr_, 5) + " pulses/round";
+  } else if (experiment_ == UahExperiment::kFace) {
+    s += " turn " + std::to_string(face_turns_) + ", " + deg(std::abs(heading_rad_)) +
+         " from the starting heading";
   } else if (experiment_ == UahExperiment::kStraight) {
     s += " run " + std::to_string(attempts_ + 1) + " (" + std::to_string(accepted_) + "/" +
          std::to_string(options_.straight_runs) + " accepted)";
@@ -579,7 +680,7 @@ StageStatus UahRun::status() const {
   s.step = name(experiment_);
   // A helper or a person acts on each new round, straight run and wait for a length.
   s.key = std::to_string(round()) + "/" + std::to_string(straightRun()) + "/" +
-          std::to_string(needsStraightLength());
+          std::to_string(needsStraightLength()) + "/" + std::to_string(face_turns_);
   s.progress = progress();
   s.text = describe();
   s.figures = {{"round", static_cast<double>(round())},

@@ -110,6 +110,8 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("max_heading_deviation_rad", r.straight.max_heading_deviation_rad);
   p.get("max_straight_shortening", r.straight.max_shortening);
   p.get("max_straight_disagreement", r.straight.max_disagreement);
+  p.get("face_tolerance_rad", r.face_tolerance_rad);
+  p.get("max_face_turns", r.max_face_turns);
   p.get("min_clearance_m", r.min_clearance_m);
   p.get("window_fraction", r.detection.window_fraction);
   p.get("min_peak_correlation", r.detection.min_peak_correlation);

@@ -126,6 +126,41 @@ TEST_P(UahReplayRobots, RecomputesTheLiveResultFromTheRecording) {
 
 INSTANTIATE_TEST_SUITE_P(OdometryTestRobots, UahReplayRobots, ::testing::Values(0, 1, 2, 3));
 
+// A robot whose turns leave it off its heading turns back before its straight runs: the replay
+// leaves those turns out of the experiments and gets the live run's turns and runs.
+TEST(UahReplay, TurnsBackToTheHeadingAreLeftOut) {
+  test::OdometryTestRobot robot = test::odometryTestRobots().front();
+  robot.robot = test::stickyLateRobot();
+  Recorded rec;
+  sim::Simulation simulation(
+      robot.robot,
+      sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world_odometry.yaml"),
+      sim::SimulationOptions());
+  std::mt19937_64 rng(1);
+  test::UahSensorHooks hooks;
+  hooks.recording = &rec.recording;
+  hooks.transport = true;
+  rec.options = optionsFor(robot);
+  rec.live = test::runUahInSim(simulation, rec.options, rng, 900, hooks);
+  ASSERT_TRUE(rec.live.done) << rec.live.failure;
+  ASSERT_GE(rec.live.face_turns, 1);
+  const odometry::UahReplayResult replay = odometry::replayUah(rec.recording, replayOptions(rec));
+  const auto faces = std::count_if(replay.motions.begin(), replay.motions.end(), [](const auto& m) {
+    return m.experiment == UahExperiment::kFace;
+  });
+  EXPECT_EQ(faces, rec.live.face_turns);
+  ASSERT_EQ(replay.turns.size(), rec.live.turns.size());
+  for (size_t i = 0; i < replay.turns.size(); ++i) {
+    EXPECT_EQ(replay.turns[i].experiment, rec.live.turns[i].experiment);
+  }
+  ASSERT_EQ(replay.straight_runs.size(), rec.live.straight_runs.size());
+  for (size_t i = 0; i < replay.straight_runs.size(); ++i) {
+    EXPECT_EQ(replay.straight_runs[i].right_pulses, rec.live.straight_runs[i].right_pulses);
+  }
+  EXPECT_NEAR(replay.result.calibrated.wheelbase_m / rec.live.result.calibrated.wheelbase_m, 1.0,
+              1e-3);
+}
+
 TEST(UahReplay, GivenLengthsReplaceTheRecordedOnes) {
   const Recorded& rec = defaultRun();
   odometry::UahReplayOptions o = replayOptions(rec);

@@ -280,18 +280,7 @@ TEST(UahRunInSim, RunsBeyondTheHeadingThresholdAreRepeatedUpToTheBound) {
 // where the free line for the straight runs is. The robot turns back by what its turns' fractions
 // of a round add up to, checked against its true heading at each forward run's start.
 TEST(UahRunInSim, TurnsBackToTheStartingHeadingBeforeTheStraightRuns) {
-  sim::RobotConfig robot =
-      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
-  // A robot whose turns ended 18 deg off in robot mode (static friction, play, gains that differ),
-  // its readings and commands 50 ms late (in robot mode the node's loop and ROS add to the links'
-  // 30 ms).
-  robot.deadband = 0.074;
-  robot.breakaway_duty_left = 0.097;
-  robot.breakaway_duty_right = 0.098;
-  robot.backlash_rad = 0.055;
-  robot.backward_gain_ratio_left = 0.955;
-  robot.backward_gain_ratio_right = 1.024;
-  robot.transport.encoders.latency_s = robot.transport.wheels_cmd.latency_s = 0.05;
+  const sim::RobotConfig robot = test::stickyLateRobot();
   const auto run = [&](int max_face_turns) {
     sim::Simulation simulation(robot, world("world_odometry.yaml"), sim::SimulationOptions());
     std::mt19937_64 rng(1);

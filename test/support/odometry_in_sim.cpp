@@ -193,6 +193,19 @@ UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
   return out;
 }
 
+sim::RobotConfig stickyLateRobot() {
+  sim::RobotConfig robot =
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  robot.deadband = 0.074;
+  robot.breakaway_duty_left = 0.097;
+  robot.breakaway_duty_right = 0.098;
+  robot.backlash_rad = 0.055;
+  robot.backward_gain_ratio_left = 0.955;
+  robot.backward_gain_ratio_right = 1.024;
+  robot.transport.encoders.latency_s = robot.transport.wheels_cmd.latency_s = 0.05;
+  return robot;
+}
+
 std::vector<OdometryTestRobot> odometryTestRobots() {
   std::vector<OdometryTestRobot> robots;
   robots.push_back(

@@ -81,6 +81,12 @@ UahInSim runUahInSim(sim::Simulation& simulation, const odometry::UahRunOptions&
 UmbmarkInSim runUmbmarkInSim(sim::Simulation& simulation,
                              const odometry::UmbmarkRunOptions& options, double max_sim_s = 1800);
 
+/// robot.yaml as a robot whose UAH turns ended 18 deg off its heading in robot mode (static
+/// friction, gearbox play, gains that differ between the directions), its readings and commands
+/// 50 ms late (in robot mode the node's loop and ROS add to the links' 30 ms). Run it with
+/// UahSensorHooks::transport.
+sim::RobotConfig stickyLateRobot();
+
 /// The robots of the odometry tests: Duckiebot-like ones and a larger robot.
 struct OdometryTestRobot {
   std::string label;

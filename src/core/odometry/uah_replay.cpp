@@ -34,17 +34,19 @@ UahExperiment experimentFromPhase(const std::string& phase) {
   return UahExperiment::kWait;
 }
 
-/// Whether the commands of a motion are what the live run commands in `e`.
+/// Whether the commands of a motion are what the live run commands in `e`. A driven wheel's duty
+/// may fall to zero for a while: its rate control slows it (a robot whose readings come late
+/// swings about its rate).
 bool commandsFit(UahExperiment e, double left, double right) {
   switch (e) {
     case UahExperiment::kPivotLeftStopped:
-      return left == 0 && right > 0;
+      return left == 0 && right >= 0;
     case UahExperiment::kPivotRightStopped:
-      return left > 0 && right == 0;
+      return left >= 0 && right == 0;
     case UahExperiment::kSpin:
-      return left < 0 && right > 0;
-    case UahExperiment::kFace:  // a pivot back on either stopped wheel
-      return (left == 0 && right > 0) || (left > 0 && right == 0);
+      return left <= 0 && right >= 0;
+    case UahExperiment::kFace:  // a pivot on either stopped wheel
+      return (left == 0 && right >= 0) || (left >= 0 && right == 0);
     case UahExperiment::kStraight:  // the heading hold may take the left duty to 0
       return left * right >= 0;
     default:
@@ -144,7 +146,10 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     if (s.state == 3) out.recorded_outcome = "failed: " + s.failure_reason;
   }
 
-  // Motions: stretches of commands not both zero.
+  // Motions: stretches of commands not both zero. The live run starts a motion settle_s after the
+  // last one stopped at the earliest: zeros for less than 3/4 of that are a motion's rate control
+  // taking both duties to zero for a moment (a spin on a robot whose readings come 50 ms late:
+  // 0.06-0.22 s), not a stop.
   struct Span {
     size_t first, last;  // command indices
   };
@@ -152,7 +157,9 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
   for (size_t i = 0; i < rec.commands.size(); ++i) {
     const bool moving = rec.commands[i].left != 0 || rec.commands[i].right != 0;
     if (!moving) continue;
-    if (!spans.empty() && spans.back().last + 1 == i) {
+    if (!spans.empty() && (spans.back().last + 1 == i ||
+                           rec.commands[i].stamp_s - rec.commands[spans.back().last + 1].stamp_s <
+                               0.75 * o.settle_s)) {
       spans.back().last = i;
     } else {
       spans.push_back({i, i});

@@ -59,6 +59,10 @@ struct DriveRecord {
 /// commands or the window is empty.
 WheelDuties meanDuties(const DriveRecord& drive, double t0_s, double t1_s);
 
+/// The wheels a fit has no line for, for a reason: "left and right wheels", "left wheel", "right
+/// wheel" ("" when both have one).
+const char* wheelsWithoutLine(const MotorFit& left, const MotorFit& right);
+
 class MotorFitter {
  public:
   /// One drive's point on one wheel's line: |duty|, steady rate [rad/s], the fit's weight.

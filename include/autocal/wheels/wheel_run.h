@@ -261,8 +261,6 @@ class WheelRun : public Stage {
  private:
   /// The deadbands are compensated but some wheel's line has not formed yet.
   bool motorFitPending() const;
-  /// The wheels without a line, in words.
-  const char* missingFitWheels() const;
   enum class Motion { kNone, kPulse, kSpin, kDrive, kSettle, kMeasure };
   enum class Purpose {
     kAlign,

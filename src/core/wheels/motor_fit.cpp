@@ -163,6 +163,12 @@ WheelDuties meanDuties(const DriveRecord& drive, double t0_s, double t1_s) {
   return {sum_left / total, sum_right / total};
 }
 
+const char* wheelsWithoutLine(const MotorFit& left, const MotorFit& right) {
+  if (!left.valid && !right.valid) return "left and right wheels";
+  if (!left.valid) return "left wheel";
+  return right.valid ? "" : "right wheel";
+}
+
 void MotorFitter::addDrive(const DriveRecord& drive, int ticks_per_revolution) {
   // The fit is frozen after fit_drives drives: the trim estimator measures k against the offsets
   // the drives compensate, and offsets that kept moving by a few 1e-4 (each a few 0.1 % of the

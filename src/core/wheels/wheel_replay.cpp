@@ -383,9 +383,7 @@ const WheelReplayResult& WheelReplay::finalResult() {
   }
   if (options_.compensate_deadband && !(r.left.valid && r.right.valid)) {
     throw CalibrationError(std::string("the replayed motor fit found no deadband for the ") +
-                           (!r.left.valid && !r.right.valid ? "left and right wheels"
-                            : r.left.valid                  ? "right wheel"
-                                                            : "left wheel") +
+                           wheelsWithoutLine(r.left, r.right) +
                            " (" + std::to_string(r.drives) +
                            " drives): nothing written rather than the guesses");
   }

@@ -257,11 +257,6 @@ bool WheelRun::motorFitPending() const {
   return options_.compensate_deadband && !(fitter_.left().valid && fitter_.right().valid);
 }
 
-const char* WheelRun::missingFitWheels() const {
-  if (!fitter_.left().valid && !fitter_.right().valid) return "left and right wheels";
-  return fitter_.left().valid ? "right wheel" : "left wheel";
-}
-
 double WheelRun::driveSeconds(double speed_mps) const {
   // A ratio error e turns the robot by about e·distance/baseline over a drive.
   // Until both deadbands are fitted the ratio depends on the speed, and the next drive's speed
@@ -751,7 +746,7 @@ void WheelRun::onSettled(double now_s) {
       recordDriveForFit();
       if (estimator_.converged() && motorFitPending()) {
         if (fit_cycles_ >= options_.max_fit_cycles) {
-          fail("the motor fit found no deadband for the " + std::string(missingFitWheels()) +
+          fail("the motor fit found no deadband for the " + std::string(wheelsWithoutLine(fitter_.left(), fitter_.right())) +
                " after the trim converged and " + std::to_string(fit_cycles_) +
                " more drives forward and back (max_fit_cycles): its drives' rates did not lie on "
                "a line with a deadband between 0 and the largest offset (a wheel slipping, a "

@@ -33,7 +33,8 @@ struct Recorded {
   odometry::UahRunOptions options;
 };
 
-Recorded recordRun(const test::OdometryTestRobot& r) {
+/// The run of `r` in the odometry world, recorded; `transport`: through the robot's late links.
+Recorded recordRun(const test::OdometryTestRobot& r, bool transport = false) {
   Recorded out;
   sim::Simulation simulation(
       r.robot,
@@ -42,6 +43,7 @@ Recorded recordRun(const test::OdometryTestRobot& r) {
   std::mt19937_64 rng(1);
   test::UahSensorHooks hooks;
   hooks.recording = &out.recording;
+  hooks.transport = transport;
   out.options = optionsFor(r);
   out.live = test::runUahInSim(simulation, out.options, rng, 900, hooks);
   return out;
@@ -131,17 +133,7 @@ INSTANTIATE_TEST_SUITE_P(OdometryTestRobots, UahReplayRobots, ::testing::Values(
 TEST(UahReplay, TurnsBackToTheHeadingAreLeftOut) {
   test::OdometryTestRobot robot = test::odometryTestRobots().front();
   robot.robot = test::stickyLateRobot();
-  Recorded rec;
-  sim::Simulation simulation(
-      robot.robot,
-      sim::loadWorldConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world_odometry.yaml"),
-      sim::SimulationOptions());
-  std::mt19937_64 rng(1);
-  test::UahSensorHooks hooks;
-  hooks.recording = &rec.recording;
-  hooks.transport = true;
-  rec.options = optionsFor(robot);
-  rec.live = test::runUahInSim(simulation, rec.options, rng, 900, hooks);
+  const Recorded rec = recordRun(robot, true);
   ASSERT_TRUE(rec.live.done) << rec.live.failure;
   ASSERT_GE(rec.live.face_turns, 1);
   const odometry::UahReplayResult replay = odometry::replayUah(rec.recording, replayOptions(rec));

@@ -1,6 +1,7 @@
 # autocal — the commands a new user runs on a fresh Debian 12 machine.
 #   make demo   deps + build + the main job (see README)
-#   make test   deps + build + every gtest and rostest; ends with "N passed, N failed"
+#   make test   deps + build + every gtest and rostest (scripts/run_tests.py: those off the wall
+#               clock two at a time, then the rest alone); ends with "N passed, N failed"
 #   make deps   installs the Debian packages (apt-get; prints the command when not root)
 #   make build  Release build into build/, leaves build/devel/setup.bash
 #   make bench  the benchmarks; writes BENCHMARKS.md figures under build/bench/
@@ -59,7 +60,8 @@ test: build
 	@rm -rf $(BUILD_DIR)/test_results
 	@source $(BUILD_DIR)/devel/setup.bash && \
 	  ROS_PACKAGE_PATH=$(CURDIR):$$ROS_PACKAGE_PATH ROS_HOME=$(CURDIR)/$(BUILD_DIR)/ros_home \
-	  cmake --build $(BUILD_DIR) --target run_tests -- -j1 > $(BUILD_DIR)/run_tests.log 2>&1; \
+	  cmake --build $(BUILD_DIR) --target tests -- -j$(JOBS) > $(BUILD_DIR)/run_tests.log 2>&1 && \
+	  /usr/bin/python3 scripts/run_tests.py $(BUILD_DIR) $(BUILD_DIR)/run_tests.log --jobs $(JOBS); \
 	  status=$$?; /usr/bin/python3 scripts/test_summary.py $(BUILD_DIR)/test_results $(BUILD_DIR)/run_tests.log $$status
 
 demo: build

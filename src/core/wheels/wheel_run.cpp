@@ -319,11 +319,7 @@ void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
   since_still_ = sign > 0 ? SinceStill::kForward : SinceStill::kBackward;
   const KinematicsParams p = drive_params_ = driveParams();
   const double w = speed_mps / p.radius;
-  // Backward with the motor fit's slopes per direction, as the iteration's drives back: the
-  // kinematics drive straight forward only (robot.yaml's motors, 4.5 % and 2.4 % apart between the
-  // directions, curved a 0.12 m hop back by 1.9 deg).
-  const WheelDuties forward = speedsToDuties(p, {w, w});
-  const WheelDuties d = sign < 0 ? backwardDuties(forward) : forward;
+  const WheelDuties d = speedsToDuties(p, {w, w});
   drive_sign_ = sign;
   drive_speed_mps_ = speed_mps;
   steer_ratio_ = 0;
@@ -381,14 +377,9 @@ void WheelRun::recordStill() {
         since_still_ == SinceStill::kForward    ? extrinsics::StillMotion::kForward
         : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
                                                 : extrinsics::StillMotion::kSpin;
-    // The stage's own short drives come after the trim converged: straight, but for the first.
-    // The turns on the spot before it left each wheel's gearbox play taken up the way that wheel
-    // last turned, opposite ways: the first hop forward starts with one wheel crossing its play
-    // while the other drives, a turn made at the start rather than along the hop, whose chord is
-    // then not at half the turn (robot.yaml: 3.3 deg, the chord 1.5 deg off). It takes the play
-    // up on both wheels; its still is used, its drive not for the yaw.
-    const bool straight = stage_ == WheelRunStage::kExtrinsics &&
-                          m != extrinsics::StillMotion::kSpin && extrinsics_drives_done_ > 1;
+    // The stage's own short drives come after the trim converged: straight.
+    const bool straight =
+        stage_ == WheelRunStage::kExtrinsics && m != extrinsics::StillMotion::kSpin;
     still_pairs_.push_back({now - 1, now, m, straight});
   }
   since_still_ = SinceStill::kNone;
@@ -461,10 +452,9 @@ void WheelRun::steerBack(double now_s) {
     return (e / tau + integral / (2 * tau * tau)) / steer_wheel_radps_;
   };
   // Anti-windup: the integral grows only while the correction is within its bound.
-  if (std::abs(share(steer_integral_ + e * dt)) < options_.max_back_steer)
-    steer_integral_ += e * dt;
-  const double c =
-      std::clamp(share(steer_integral_), -options_.max_back_steer, options_.max_back_steer);
+  if (std::abs(share(steer_integral_ + e * dt)) < options_.max_back_steer) steer_integral_ += e * dt;
+  const double c = std::clamp(share(steer_integral_), -options_.max_back_steer,
+                              options_.max_back_steer);
   steer_carried_[steer_slot_] = std::clamp(steer_integral_ / (2 * tau * tau) / steer_wheel_radps_,
                                            -options_.max_back_steer, options_.max_back_steer);
   const KinematicsParams& p = drive_params_;
@@ -649,7 +639,8 @@ void WheelRun::onMeasured(double now_s) {
         // answers).
         const double min_angle = 50 * 2 * M_PI / ticks_per_rev_;
         const double ratio = drive_right_angle_rad_ / drive_left_angle_rad_;
-        const bool directions_told = fitter_.left().per_direction && fitter_.right().per_direction;
+        const bool directions_told =
+            fitter_.left().per_direction && fitter_.right().per_direction;
         steer_ratio_ = options_.back_steer_s > 0 && !directions_told &&
                                drive_left_angle_rad_ > min_angle &&
                                drive_right_angle_rad_ > min_angle && ratio > 0.5 && ratio < 2
@@ -657,8 +648,8 @@ void WheelRun::onMeasured(double now_s) {
                            : 0.0;
         steer_slot_ = other_speed ? 1 : 0;
         steer_wheel_radps_ = w;
-        steer_integral_ =
-            steer_carried_[steer_slot_] * 2 * options_.back_steer_s * options_.back_steer_s * w;
+        steer_integral_ = steer_carried_[steer_slot_] * 2 * options_.back_steer_s *
+                          options_.back_steer_s * w;
         steer_last_s_ = now_s;
         const WheelDuties straight = speedsToDuties(p, {w, w});
         const WheelDuties d = steer_ratio_ > 0 ? straight : backwardDuties(straight);
@@ -755,8 +746,7 @@ void WheelRun::onSettled(double now_s) {
       recordDriveForFit();
       if (estimator_.converged() && motorFitPending()) {
         if (fit_cycles_ >= options_.max_fit_cycles) {
-          fail("the motor fit found no deadband for the " +
-               std::string(wheelsWithoutLine(fitter_.left(), fitter_.right())) +
+          fail("the motor fit found no deadband for the " + std::string(wheelsWithoutLine(fitter_.left(), fitter_.right())) +
                " after the trim converged and " + std::to_string(fit_cycles_) +
                " more drives forward and back (max_fit_cycles): its drives' rates did not lie on "
                "a line with a deadband between 0 and the largest offset (a wheel slipping, a "

@@ -96,7 +96,7 @@ void honesty(const std::string& dir, int seeds) {
       const std::string m = distortionModelName(r.result.intrinsics.distortion_model);
       if (models.find(m) == std::string::npos) models += (models.empty() ? "" : ", ") + m;
       const std::vector<double> d =
-          camera::projectionDifferences(robot.camera.truth, r.result.intrinsics, u.cols, u.rows);
+          camera::projectionDifferences(robot.camera.truth, r.result.intrinsics, u.grid);
       double sum = 0;
       for (size_t i = 0; i < d.size(); ++i) {
         // A cell either side cannot project (NaN) counts as outside 3 sigma.
@@ -104,7 +104,7 @@ void honesty(const std::string& dir, int seeds) {
                              ? d[i] / u.sigma_px[i]
                              : std::numeric_limits<double>::infinity();
         ratio.push_back(q);
-        if (static_cast<int>(i) / u.cols >= u.rows / 2) lower_ratio.push_back(q);
+        if (static_cast<int>(i) / u.grid.cols >= u.grid.rows / 2) lower_ratio.push_back(q);
         sum += std::isfinite(d[i]) ? d[i] * d[i] : 0;
       }
       rms.push_back(std::sqrt(sum / static_cast<double>(d.size())));

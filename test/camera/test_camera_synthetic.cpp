@@ -399,11 +399,11 @@ Honesty honesty(const Truth& t, const CalibrationOptions& o, int trials) {
     if (!u.valid) return {};
     EXPECT_NEAR(u.corner_noise_px, 0.3, 0.03);
     if (squared.empty()) squared.assign(u.sigma_px.size(), 0), predicted_squared = squared;
-    for (int row = 0; row < u.rows; ++row) {
-      for (int col = 0; col < u.cols; ++col) {
-        const size_t i = static_cast<size_t>(row * u.cols + col);
-        const cv::Point2d pixel((col + 0.5) * kImage.width / u.cols,
-                                (row + 0.5) * kImage.height / u.rows);
+    for (int row = 0; row < u.grid.rows; ++row) {
+      for (int col = 0; col < u.grid.cols; ++col) {
+        const size_t i = static_cast<size_t>(row * u.grid.cols + col);
+        const cv::Point2d pixel((col + 0.5) * kImage.width / u.grid.cols,
+                                (row + 0.5) * kImage.height / u.grid.rows);
         const double e = trueError(t, r.intrinsics, pixel);
         squared[i] += e * e / trials;
         predicted_squared[i] += u.sigma_px[i] * u.sigma_px[i] / trials;
@@ -451,8 +451,8 @@ TEST(CameraUncertainty, ExactRaysForAWideLens) {
   const CameraIntrinsics lens = lensOf(t);
   CameraIntrinsics refocused = lens;
   refocused.fx *= 1.01, refocused.fy *= 1.01;
-  const std::vector<double> self = projectionDifferences(lens, lens, 16, 12);
-  const std::vector<double> d = projectionDifferences(lens, refocused, 16, 12);
+  const std::vector<double> self = projectionDifferences(lens, lens, ImageGrid{16, 12});
+  const std::vector<double> d = projectionDifferences(lens, refocused, ImageGrid{16, 12});
   ASSERT_EQ(d.size(), 192u);
   for (int r = 0; r < 12; ++r) {
     for (int c = 0; c < 16; ++c) {
@@ -524,7 +524,7 @@ TEST(ModelChoice, ACornerDetectedWrongDoesNotChooseTheModel) {
   ASSERT_TRUE(choice.passed) << choice.refusals("; ");
   EXPECT_EQ(distortionModelName(choice.result.intrinsics.distortion_model), "plumb_bob")
       << choice.result.refused_models;
-  const std::vector<double> d = projectionDifferences(lensOf(t), choice.result.intrinsics, 16, 12);
+  const std::vector<double> d = projectionDifferences(lensOf(t), choice.result.intrinsics, ImageGrid{16, 12});
   EXPECT_LT(*std::max_element(d.begin(), d.end(), [](double a, double b) { return !(a >= b); }),
             2.0);  // a NaN is the largest
 }

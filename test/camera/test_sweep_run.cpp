@@ -150,8 +150,7 @@ struct TargetScene {
     heading_by_frame[7] = -0.3;
     // Even, except one cell in the lower left and one in the upper right.
     uncertainty.valid = true;
-    uncertainty.cols = 16;
-    uncertainty.rows = 12;
+    uncertainty.grid = {16, 12};
     uncertainty.sigma_px.assign(16 * 12, 0.1);
     uncertainty.sigma_px[10 * 16 + 0] = 3.0;  // centre (20, 420)
     uncertainty.sigma_px[1 * 16 + 15] = 2.0;  // centre (620, 60)

@@ -18,9 +18,23 @@
 namespace autocal {
 namespace camera {
 
+/// The grid over the image on which every whole-image figure is taken (the uncertainty, the
+/// halves' cross-validation, the difference between models, where more views are wanted): cols x
+/// rows cells, each judged at its centre.
+struct ImageGrid {
+  int cols = 16, rows = 12;
+  size_t cells() const { return cols > 0 && rows > 0 ? static_cast<size_t>(cols * rows) : 0; }
+  /// The centre of cell (c, r) in a width x height image [px].
+  cv::Point2d centre(int c, int r, int width, int height) const {
+    return {(c + 0.5) * width / cols, (r + 0.5) * height / rows};
+  }
+  /// Every cell's centre, row-major.
+  std::vector<cv::Point2d> centres(int width, int height) const;
+};
+
 struct ProjectionUncertainty {
-  bool valid = false;      ///< false: the fit gives none (no free parameter, too few corners)
-  int cols = 0, rows = 0;  ///< the grid over the image (cell centres)
+  bool valid = false;  ///< false: the fit gives none (no free parameter, too few corners)
+  ImageGrid grid;      ///< the cells of sigma_px
   /// Per grid cell, row-major: the standard deviation of the projection in its worst direction
   /// [px] (the square root of the covariance's larger eigenvalue); NaN where the model maps no ray
   /// to the cell's centre (not counted in the figures below).
@@ -59,7 +73,14 @@ ProjectionUncertainty projectionUncertainty(
     const std::vector<std::vector<cv::Point3f>>& object_points,
     const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
     const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& intrinsics,
-    const std::vector<bool>& fitted, int cols = 16, int rows = 12);
+    const std::vector<bool>& fitted, const ImageGrid& grid = {});
+
+/// The same from the intrinsics' covariance, where the fit already computed it (an equidistant
+/// fit, whose standard deviations come from it).
+ProjectionUncertainty projectionUncertainty(const IntrinsicsCovariance& covariance,
+                                            const CameraIntrinsics& intrinsics,
+                                            const std::vector<bool>& fitted,
+                                            const ImageGrid& grid = {});
 
 /// Two calibrations from disjoint halves of the views (every other view), with the same model and
 /// terms, compared over the grid: each pixel's ray under the first projected with the second. A
@@ -79,10 +100,10 @@ struct HalvesCrossValidation {
   double ratio = 0;
 };
 
-/// The projection difference between two intrinsics over the cells of a cols x rows grid: each
-/// cell centre's ray under `a` projected with `b` [px], row-major (NaN where `a` has no ray).
+/// The projection difference between two intrinsics over the cells of `grid`: each cell
+/// centre's ray under `a` projected with `b` [px], row-major (NaN where `a` has no ray).
 std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
-                                          int cols, int rows);
+                                          const ImageGrid& grid);
 
 /// Each pixel's ray under `in`, as a point at depth 1 in the camera frame: OpenCV's undistortion,
 /// then Newton's method on the projection itself. OpenCV's fixed-point undistortion alone does

@@ -62,7 +62,22 @@ struct Fit {
   double rms_px = 0;
   std::vector<double> std_devs;
   std::vector<cv::Mat> rvecs, tvecs;
+  /// The covariance of the free intrinsics where the fit computed it (equidistant: OpenCV reports
+  /// no standard deviations for it); not valid otherwise.
+  IntrinsicsCovariance covariance;
 };
+
+/// The projection uncertainty of fit `f` of `obj` seen at `img`, over `grid`.
+ProjectionUncertainty uncertaintyOf(const Fit& f, const std::vector<Points3>& obj,
+                                    const std::vector<Points2>& img,
+                                    const std::vector<bool>& fitted, const ImageGrid& grid = {}) {
+  std::vector<int> free;
+  for (size_t i = 0; i < fitted.size(); ++i)
+    if (fitted[i]) free.push_back(static_cast<int>(i));
+  if (f.covariance.valid && f.covariance.free == free)
+    return projectionUncertainty(f.covariance, f.intrinsics, fitted, grid);
+  return projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted, grid);
+}
 
 size_t distortionCount(DistortionModel m) {
   return m == DistortionModel::kPlumbBob ? 5 : m == DistortionModel::kRationalPolynomial ? 8 : 4;
@@ -124,8 +139,8 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
     // OpenCV's fisheye calibration reports no standard deviations: the covariance at its
     // result gives them (over repeated synthetic fits, its results scatter as that covariance
     // says: CameraUncertainty.FisheyePredictionMatchesRepeatedCalibrations).
-    f.std_devs = intrinsicsCovariance(obj, img, f.rvecs, f.tvecs, f.intrinsics, fisheye_fitted)
-                     .std_devs(fisheye_fitted.size());
+    f.covariance = intrinsicsCovariance(obj, img, f.rvecs, f.tvecs, f.intrinsics, fisheye_fitted);
+    f.std_devs = f.covariance.std_devs(fisheye_fitted.size());
   }
   const CameraIntrinsics& in = f.intrinsics;
   if (!std::isfinite(in.fx) || !std::isfinite(in.fy) || !std::isfinite(in.cx) ||
@@ -221,16 +236,14 @@ HalvesCrossValidation crossValidateHalves(const std::vector<Points3>& obj,
   try {
     for (int h = 0; h < 2; ++h) {
       half[h] = fit(obj_half[h], img_half[h], size, model, flags, &all);
-      u[h] = projectionUncertainty(obj_half[h], img_half[h], half[h].rvecs, half[h].tvecs,
-                                   half[h].intrinsics, fitted, all_uncertainty.cols,
-                                   all_uncertainty.rows);
+      u[h] = uncertaintyOf(half[h], obj_half[h], img_half[h], fitted, all_uncertainty.grid);
     }
   } catch (const CalibrationError&) {
     return out;  // a half too weak to fit: no cross-validation
   }
   if (!u[0].valid || !u[1].valid) return out;
-  const std::vector<double> d = projectionDifferences(half[0].intrinsics, half[1].intrinsics,
-                                                      all_uncertainty.cols, all_uncertainty.rows);
+  const std::vector<double> d =
+      projectionDifferences(half[0].intrinsics, half[1].intrinsics, all_uncertainty.grid);
   double sum = 0, expected = 0, normalised = 0;
   int n = 0;
   for (size_t i = 0; i < d.size(); ++i) {
@@ -576,7 +589,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   // The free parameters: those with a standard deviation (a fixed one has 0).
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
-  result.uncertainty = projectionUncertainty(obj, img, f.rvecs, f.tvecs, f.intrinsics, fitted);
+  result.uncertainty = uncertaintyOf(f, obj, img, fitted);
   result.halves = crossValidateHalves(obj, img, image_size, options.model, chosen.flags, fitted,
                                       f.intrinsics, result.uncertainty);
   return result;
@@ -646,7 +659,7 @@ std::vector<std::string> checkQuality(const CalibrationResult& r, const QualityG
   const ProjectionUncertainty& u = r.uncertainty;
   if (u.valid && u.unmapped > 0) {
     reasons.push_back("the fitted model maps no ray to " + std::to_string(u.unmapped) + " of the " +
-                      std::to_string(u.cols * u.rows) +
+                      std::to_string(u.grid.cells()) +
                       " cells of the image grid: it extrapolates far beyond the views there; add "
                       "views whose board corners reach those parts of the image");
   }
@@ -684,37 +697,33 @@ std::string ModelChoice::refusals(const std::string& separator) const {
 
 namespace {
 
-/// How far `fit` projects from `reference` over the image grid, and the radius around the image
-/// centre within which it stays within `limit_px` of it.
+/// How far `fit` projects from `reference` over `grid`, and the radius around the image centre
+/// within which it stays within `limit_px` of it.
 struct ModelDifference {
   double rms_px = 0, worst_px = 0;
   double valid_radius_px = 0;  ///< the nearest grid cell beyond the limit (or none unmapped)
   double valid_fraction = 0;   ///< of the grid's cells within that radius
 };
 ModelDifference modelDifference(const CameraIntrinsics& fit, const CameraIntrinsics& reference,
-                                double limit_px) {
-  const int cols = 16, rows = 12;
-  const std::vector<double> d = projectionDifferences(reference, fit, cols, rows);
+                                double limit_px, const ImageGrid& grid) {
+  const std::vector<double> d = projectionDifferences(reference, fit, grid);
+  const std::vector<cv::Point2d> centres = grid.centres(fit.width, fit.height);
   ModelDifference out;
   out.valid_radius_px = std::hypot(fit.width, fit.height);
   std::vector<double> radius;
   double sum = 0;
   int n = 0;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      const double e = d[static_cast<size_t>(r * cols + c)];
-      const double from_centre = std::hypot((c + 0.5) * fit.width / cols - 0.5 * fit.width,
-                                            (r + 0.5) * fit.height / rows - 0.5 * fit.height);
-      radius.push_back(from_centre);
-      if (!(e <= limit_px)) out.valid_radius_px = std::min(out.valid_radius_px, from_centre);
-      if (!std::isfinite(e)) {
-        out.worst_px = std::numeric_limits<double>::infinity();
-        continue;
-      }
-      sum += e * e;
-      ++n;
-      out.worst_px = std::max(out.worst_px, e);
+  for (size_t i = 0; i < centres.size(); ++i) {
+    const double e = d[i];
+    radius.push_back(std::hypot(centres[i].x - 0.5 * fit.width, centres[i].y - 0.5 * fit.height));
+    if (!(e <= limit_px)) out.valid_radius_px = std::min(out.valid_radius_px, radius.back());
+    if (!std::isfinite(e)) {
+      out.worst_px = std::numeric_limits<double>::infinity();
+      continue;
     }
+    sum += e * e;
+    ++n;
+    out.worst_px = std::max(out.worst_px, e);
   }
   out.rms_px = n ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
   out.valid_fraction =
@@ -810,9 +819,9 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
     if (reference != chosen && reference < models.size()) {
       // A model not listed fits best: the chosen one is written only where it projects as that
       // one does over the whole image.
-      const ModelDifference d = modelDifference(result[chosen].intrinsics,
-                                                result[reference].intrinsics,
-                                                gate.max_model_difference_px);
+      const ModelDifference d =
+          modelDifference(result[chosen].intrinsics, result[reference].intrinsics,
+                          gate.max_model_difference_px, result[chosen].uncertainty.grid);
       if (!(d.worst_px <= gate.max_model_difference_px)) {
         choice.passed = false;
         reasons[chosen] = {
@@ -832,8 +841,9 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
     // None listed passes: say which model would, and how far the first listed one is from it.
     for (size_t k = 0; k < listed; ++k) {
       if (!fitted[k]) continue;
-      const ModelDifference d = modelDifference(result[k].intrinsics, result[reference].intrinsics,
-                                                gate.max_model_difference_px);
+      const ModelDifference d =
+          modelDifference(result[k].intrinsics, result[reference].intrinsics,
+                          gate.max_model_difference_px, result[k].uncertainty.grid);
       reasons[k].push_back(
           distortionModelName(models[reference]) + " (not listed) fits these views" +
           fmt(": this fit projects %.2f px RMS and up to %.1f px away from it", d.rms_px,

@@ -107,7 +107,7 @@ std::string viewsYaml(const BoardSpec& board, const CalibrationResult& result,
   }
   const ProjectionUncertainty& pu = result.uncertainty;
   if (pu.valid) {
-    y << "projection_uncertainty:\n  grid: [" << pu.cols << ", " << pu.rows
+    y << "projection_uncertainty:\n  grid: [" << pu.grid.cols << ", " << pu.grid.rows
       << "]\n  corner_noise_px: " << formatNumber(pu.corner_noise_px, 4)
       << "\n  rms_px: " << formatNumber(pu.rms_px, 4)
       << "\n  worst_px: " << formatNumber(pu.worst_px, 4)

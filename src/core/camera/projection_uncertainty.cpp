@@ -125,12 +125,16 @@ cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<b
                      c.at<double>(1, 1));
 }
 
-std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
-                                          int cols, int rows) {
-  std::vector<cv::Point2d> pixels;
+std::vector<cv::Point2d> ImageGrid::centres(int width, int height) const {
+  std::vector<cv::Point2d> out;
   for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c)
-      pixels.emplace_back((c + 0.5) * a.width / cols, (r + 0.5) * a.height / rows);
+    for (int c = 0; c < cols; ++c) out.push_back(centre(c, r, width, height));
+  return out;
+}
+
+std::vector<double> projectionDifferences(const CameraIntrinsics& a, const CameraIntrinsics& b,
+                                          const ImageGrid& grid) {
+  const std::vector<cv::Point2d> pixels = grid.centres(a.width, a.height);
   const std::vector<cv::Point2d> projected =
       projectWithJacobians(pixelRays(a, pixels), zero3(), zero3(), b).points;
   std::vector<double> out;
@@ -221,21 +225,28 @@ ProjectionUncertainty projectionUncertainty(
     const std::vector<std::vector<cv::Point3f>>& object_points,
     const std::vector<std::vector<cv::Point2f>>& image_points, const std::vector<cv::Mat>& rvecs,
     const std::vector<cv::Mat>& tvecs, const CameraIntrinsics& in, const std::vector<bool>& fitted,
-    int cols, int rows) {
+    const ImageGrid& grid) {
+  if (grid.cells() == 0) return {};
+  return projectionUncertainty(
+      intrinsicsCovariance(object_points, image_points, rvecs, tvecs, in, fitted), in, fitted,
+      grid);
+}
+
+ProjectionUncertainty projectionUncertainty(const IntrinsicsCovariance& covariance,
+                                            const CameraIntrinsics& in,
+                                            const std::vector<bool>& fitted,
+                                            const ImageGrid& grid) {
   ProjectionUncertainty out;
-  if (cols <= 0 || rows <= 0) return out;
-  const IntrinsicsCovariance c =
-      intrinsicsCovariance(object_points, image_points, rvecs, tvecs, in, fitted);
-  if (!c.valid) return out;
-  const cv::Mat& cov = c.cov;
-  out.corner_noise_px = c.corner_noise_px;
-  out.cols = cols;
-  out.rows = rows;
+  if (grid.cells() == 0 || !covariance.valid) return out;
+  const cv::Mat& cov = covariance.cov;
+  out.corner_noise_px = covariance.corner_noise_px;
+  out.grid = grid;
+  const int rows = grid.rows, cols = grid.cols;
   double sum = 0;
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
-      const cv::Point2d pixel((c + 0.5) * in.width / cols, (r + 0.5) * in.height / rows);
-      const cv::Matx22d s = projectionCovariance(in, fitted, cov, pixel);
+      const cv::Matx22d s =
+          projectionCovariance(in, fitted, cov, grid.centre(c, r, in.width, in.height));
       // The larger eigenvalue of the symmetric 2x2 covariance.
       const double mean = 0.5 * (s(0, 0) + s(1, 1));
       const double half = std::hypot(0.5 * (s(0, 0) - s(1, 1)), s(0, 1));

@@ -10,8 +10,6 @@ namespace camera {
 
 namespace {
 
-constexpr int kGridCols = 16, kGridRows = 12;  ///< without a valid uncertainty (its default grid)
-
 /// Azimuth (+ = right in the image) and elevation (+ = up) of a ray at depth 1 in the camera
 /// frame [rad]; where the model maps no ray to the pixel, the pinhole's.
 cv::Point2d angles(const CameraIntrinsics& fit, const cv::Point3d& ray, const cv::Point2d& pixel) {
@@ -42,17 +40,14 @@ std::vector<ViewTarget> viewTargets(const ProjectionUncertainty& uncertainty,
       corner_frame.push_back(v.frame_index);
     }
   }
-  const bool by_sigma = uncertainty.valid && uncertainty.cols > 0 && uncertainty.rows > 0 &&
-                        uncertainty.sigma_px.size() ==
-                            static_cast<size_t>(uncertainty.cols * uncertainty.rows);
-  const int cols = by_sigma ? uncertainty.cols : kGridCols;
-  const int rows = by_sigma ? uncertainty.rows : kGridRows;
+  const bool by_sigma = uncertainty.valid && uncertainty.grid.cells() > 0 &&
+                        uncertainty.sigma_px.size() == uncertainty.grid.cells();
+  const ImageGrid grid = by_sigma ? uncertainty.grid : ImageGrid{};
+  const int cols = grid.cols, rows = grid.rows;
   if (corners.empty() || regions < 1 || fit.width <= 0 || fit.height <= 0) return out;
 
   // How much each cell needs a view.
-  const auto cellCentre = [&](int c, int r) {
-    return cv::Point2d((c + 0.5) * fit.width / cols, (r + 0.5) * fit.height / rows);
-  };
+  const auto cellCentre = [&](int c, int r) { return grid.centre(c, r, fit.width, fit.height); };
   const auto need = [&](int c, int r) {
     if (by_sigma) {
       const double s = uncertainty.sigma_px[r * cols + c];

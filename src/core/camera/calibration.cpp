@@ -83,6 +83,37 @@ size_t distortionCount(DistortionModel m) {
   return m == DistortionModel::kPlumbBob ? 5 : m == DistortionModel::kRationalPolynomial ? 8 : 4;
 }
 
+/// cv::fisheye::calibrate, started from k, d when `flags` asks for the guess. OpenCV's fisheye
+/// fit first places every view with the starting model (its InitExtrinsics); a start far from the
+/// lens (a warm start whose k3, k4 ran off on views that do not pin them, or a focal length twice
+/// too long) leaves a view's corners unplaceable and the fit throws ("norm_u1 > 0"), though the
+/// views fit well. Then it is started again from the same camera matrix without distortion, then
+/// from OpenCV's own start; the error of the first try is rethrown when every start fails.
+double fisheyeCalibrate(const std::vector<std::vector<cv::Point3d>>& obj,
+                        const std::vector<std::vector<cv::Point2d>>& img, const cv::Size& size,
+                        cv::Mat& k, cv::Mat& d, std::vector<cv::Mat>& rvecs,
+                        std::vector<cv::Mat>& tvecs, int flags, const cv::TermCriteria& criteria) {
+  const cv::Mat k_start = k.clone(), d_start = d.clone();
+  const bool guessed = (flags & cv::fisheye::CALIB_USE_INTRINSIC_GUESS) != 0;
+  try {
+    return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, flags, criteria);
+  } catch (const cv::Exception& first) {
+    if (!guessed) throw;
+    std::vector<int> retries;
+    if (cv::countNonZero(d_start) > 0) retries.push_back(flags);
+    retries.push_back(flags & ~cv::fisheye::CALIB_USE_INTRINSIC_GUESS);
+    for (const int retry_flags : retries) {
+      k = k_start.clone();
+      d = cv::Mat::zeros(4, 1, CV_64F);
+      try {
+        return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, retry_flags, criteria);
+      } catch (const cv::Exception&) {
+      }
+    }
+    throw first;
+  }
+}
+
 Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const cv::Size& size,
         DistortionModel model, int flags, const CameraIntrinsics* guess = nullptr,
         bool opencv_default_criteria = false) {
@@ -113,8 +144,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       std::vector<std::vector<cv::Point2d>> img_d;
       for (const auto& o : obj) obj_d.emplace_back(o.begin(), o.end());
       for (const auto& i : img) img_d.emplace_back(i.begin(), i.end());
-      f.rms_px =
-          cv::fisheye::calibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+      f.rms_px = fisheyeCalibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
       fisheye_fitted = {true, true, true, true, true, true,
                         !(flags & cv::fisheye::CALIB_FIX_K3), !(flags & cv::fisheye::CALIB_FIX_K4)};
     } else {

@@ -12,8 +12,10 @@ autocal_ros_target(detect_tags)
 install(TARGETS detect_tags RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
-  # Options, YAML and the camera_info reader, without images.
-  autocal_core_gtest(test_detect_tags SOURCES test/markers/test_detect_tags.cpp LIBS autocal_core)
+  # Options, YAML and the camera_info reader, without images; the detector on tags drawn at known
+  # corners.
+  autocal_core_gtest(test_detect_tags SOURCES test/markers/test_detect_tags.cpp
+                     test/markers/test_tag_detector.cpp LIBS autocal_core apriltag::apriltag)
   # The command end to end on the simulator's rendered floor tags (PNG folder and bag), against
   # the simulator's truth; and its bad-input exit codes.
   autocal_core_gtest(test_detect_tags_command SOURCES test/markers/test_detect_tags_command.cpp

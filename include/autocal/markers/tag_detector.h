@@ -14,6 +14,10 @@
 namespace autocal {
 namespace markers {
 
+/// Where libapriltag puts the centre of the image's first pixel, in each axis (OpenCV: 0) [px].
+/// TagDetector's corners, centre and homography are in OpenCV's pixels.
+constexpr double kLibapriltagPixelCentre = 0.5;
+
 struct TagDetectorOptions {
   /// Only tag36h11 is supported (Duckietown's family).
   std::string family = "tag36h11";

@@ -118,10 +118,18 @@ std::vector<TagDetection> TagDetector::detectUndistorted(const cv::Mat& undistor
     d.decision_margin = det->decision_margin;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) d.homography(r, c) = MATD_EL(det->H, r, c);
-    // Back to the whole image's pixels: v += row0 (the homography's rows: v·w = row1 + row0·row2).
-    for (int c = 0; c < 3; ++c) d.homography(1, c) += row0 * d.homography(2, c);
-    d.center_px = {det->c[0], det->c[1] + row0};
-    for (int k = 0; k < 4; ++k) d.corners_px[k] = {det->p[k][0], det->p[k][1] + row0};
+    // libapriltag puts the first pixel's centre at (0.5, 0.5), OpenCV and the camera matrix at
+    // (0, 0): its corners are half a pixel right of and below OpenCV's (a tag rendered at known
+    // corners: kLibapriltagPixelCentre). Back to OpenCV's pixels, in the whole image: u −= 0.5,
+    // v += row0 − 0.5 (the homography's rows: u·w = row0 − 0.5·row2, v·w = row1 + (row0 −
+    // 0.5)·row2).
+    const double du = -kLibapriltagPixelCentre, dv = row0 - kLibapriltagPixelCentre;
+    for (int c = 0; c < 3; ++c) {
+      d.homography(0, c) += du * d.homography(2, c);
+      d.homography(1, c) += dv * d.homography(2, c);
+    }
+    d.center_px = {det->c[0] + du, det->c[1] + dv};
+    for (int k = 0; k < 4; ++k) d.corners_px[k] = {det->p[k][0] + du, det->p[k][1] + dv};
     estimateTagPose(d, options_.tag_size_m, K, have_floor_normal_ ? floor_up_ : cv::Vec3d(0, 0, 0));
     result.push_back(d);
   }

@@ -44,10 +44,11 @@ struct TrimEstimatorOptions {
   /// Drives in all (counted or not) before the calibration fails unconverged.
   int max_iterations = 14;
   /// Beyond the paper, for a robot whose wheels slip at random: once max_iterations drives pass
-  /// without three small updates in a row, the last `mean_of_drives` plausible drives' ratios
-  /// (k / k_i each) are averaged after each drive, and the mean is the result as soon as its
-  /// standard error is at most `max_mean_error` [1]; after `more_drives_for_mean` more drives
-  /// without it the calibration fails. mean_of_drives 0: off.
+  /// without three small updates in a row, the last plausible drives' ratios (k / k_i each) are
+  /// averaged after each drive, `mean_of_drives` of them and one more for each drive beyond
+  /// max_iterations, and the mean is the result as soon as its standard error is at most
+  /// `max_mean_error` [1]; after `more_drives_for_mean` more drives without it the calibration
+  /// fails. mean_of_drives 0: off.
   int mean_of_drives = 12;
   double max_mean_error = 0.0005;
   int more_drives_for_mean = 8;

@@ -1,5 +1,6 @@
 #include "autocal/wheels/trim_estimator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -119,13 +120,16 @@ const TrimIteration& TrimEstimator::addDrive(double delta_theta_rad, double left
 }
 
 bool TrimEstimator::meanOfLastDrives(double* mean, double* standard_error) const {
-  const int n = options_.mean_of_drives;
+  // The window grows by each drive beyond max_iterations (its standard error falls as 1/√n), over
+  // the plausible drives there are; mean_of_drives of them at least.
+  const int window = options_.mean_of_drives + std::max(0, iterations() - options_.max_iterations);
   std::vector<double> ratios;
-  for (auto it = history_.rbegin(); it != history_.rend() && static_cast<int>(ratios.size()) < n;
-       ++it) {
+  for (auto it = history_.rbegin();
+       it != history_.rend() && static_cast<int>(ratios.size()) < window; ++it) {
     if (!it->rejected) ratios.push_back(it->ratio_before / it->k_i);
   }
-  if (n < 2 || static_cast<int>(ratios.size()) < n) {
+  const int n = static_cast<int>(ratios.size());
+  if (options_.mean_of_drives < 2 || n < options_.mean_of_drives) {
     *standard_error = std::numeric_limits<double>::infinity();
     return false;
   }

@@ -287,7 +287,8 @@ int run(const Args& args) {
     std::printf(
         "projection uncertainty over the image (%dx%d grid, corner noise %.3f px): RMS %.3f px, "
         "worst %.3f px, lower half worst %.3f px\n",
-        pu.grid.cols, pu.grid.rows, pu.corner_noise_px, pu.rms_px, pu.worst_px, pu.lower_half_worst_px);
+        pu.grid.cols, pu.grid.rows, pu.corner_noise_px, pu.rms_px, pu.worst_px,
+        pu.lower_half_worst_px);
   }
   if (result.halves.valid) {
     const camera::HalvesCrossValidation& h = result.halves;

@@ -36,7 +36,8 @@ cv::Mat drawTag(int id, const std::array<cv::Point2d, 4>& corners) {
   const double s = kSupersampling;
   // A point at OpenCV pixel u lies at (u + 0.5)·s − 0.5 in the s times larger image.
   for (const cv::Point2d& c : corners)
-    dst.emplace_back(static_cast<float>((c.x + 0.5) * s - 0.5), static_cast<float>((c.y + 0.5) * s - 0.5));
+    dst.emplace_back(static_cast<float>((c.x + 0.5) * s - 0.5),
+                     static_cast<float>((c.y + 0.5) * s - 0.5));
   cv::Mat large, image;
   cv::warpPerspective(tag.clone(), large, cv::getPerspectiveTransform(src, dst),
                       kImage * kSupersampling, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 255);
@@ -79,7 +80,8 @@ TEST(TagDetector, CornersCentreAndHomographyAreInOpenCvPixels) {
       for (int k = 0; k < 4; ++k) {
         mean_error += d.corners_px[k] - truth[k];
         ++corners;
-        EXPECT_LT(cv::norm(d.corners_px[k] - truth[k]), 0.25) << "trial " << trial << " corner " << k;
+        EXPECT_LT(cv::norm(d.corners_px[k] - truth[k]), 0.25)
+            << "trial " << trial << " corner " << k;
         // The homography takes the tag's corner (±1, ±1) to the same pixel.
         const cv::Vec3d p = d.homography * cv::Vec3d(k == 0 || k == 3 ? -1 : 1, k < 2 ? 1 : -1, 1);
         EXPECT_NEAR(p[0] / p[2], d.corners_px[k].x, 0.05);

@@ -212,8 +212,8 @@ TEST(TrimEstimator, TheMeanTakesEveryDriveBeyondTheBoundUntilItIsSure) {
     if (out.drives > o.max_iterations) ++beyond;
     worst = std::max(worst, std::abs(out.ratio * c - 1));
   }
-  std::printf("%d of 40 seeds needed drives beyond max_iterations; worst ratio error %.5f\n", beyond,
-              worst);
+  std::printf("%d of 40 seeds needed drives beyond max_iterations; worst ratio error %.5f\n",
+              beyond, worst);
   EXPECT_GE(beyond, 5) << "the scatter should often need more than twelve drives' mean";
   EXPECT_LT(worst, 3 * 0.0018 / std::sqrt(12.0));
 }

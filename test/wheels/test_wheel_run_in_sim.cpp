@@ -349,8 +349,9 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   EXPECT_NEAR(m.pitch_rad, t.pitch_rad, 0.3 * deg);
   EXPECT_NEAR(m.roll_rad, t.roll_rad, 0.3 * deg);
   EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * deg);
-  // The yaw from the stage's own short straight drives, each with a tag in view before and after.
-  EXPECT_EQ(x.straight, o.extrinsics_drives);
+  // The yaw from the stage's own short straight drives, each with a tag in view before and after,
+  // but the first (it takes up the gearbox play the turns left).
+  EXPECT_EQ(x.straight, o.extrinsics_drives - 1);
   // The stated uncertainty says the targets hold.
   ASSERT_TRUE(x.has_sigma);
   EXPECT_LT(x.sigma.height_m, 0.002);

@@ -377,9 +377,14 @@ void WheelRun::recordStill() {
         since_still_ == SinceStill::kForward    ? extrinsics::StillMotion::kForward
         : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
                                                 : extrinsics::StillMotion::kSpin;
-    // The stage's own short drives come after the trim converged: straight.
-    const bool straight =
-        stage_ == WheelRunStage::kExtrinsics && m != extrinsics::StillMotion::kSpin;
+    // The stage's own short drives come after the trim converged: straight, but for the first.
+    // The turns on the spot before it left each wheel's gearbox play taken up the way that wheel
+    // last turned, opposite ways: the first hop starts with one wheel crossing its play while the
+    // other drives, a turn made at the start rather than along the hop, whose chord is then not
+    // at half the turn. It takes the play up on both wheels; its stills count, its drive not for
+    // the yaw.
+    const bool straight = stage_ == WheelRunStage::kExtrinsics &&
+                          m != extrinsics::StillMotion::kSpin && extrinsics_drives_done_ > 1;
     still_pairs_.push_back({now - 1, now, m, straight});
   }
   since_still_ = SinceStill::kNone;

@@ -18,11 +18,19 @@ error (floor points 0.1-0.6 m ahead; the camera's height, pitch, roll and yaw), 
 Markdown tables with the distributions (median, 95th percentile, worst) for BENCHMARKS.md.
 
     /usr/bin/python3 scripts/robustness.py [--robots 20] [--rtf 1 3] [--seed 1] [--no-odometry]
-                                           [--out build/robustness]
+                                           [--jobs 1] [--first 1] [--out build/robustness]
+                                           [--table-only]
+
+--jobs N runs N robots at once, each on its own master (on 2 cores, two runs at factor 1 give each
+about as much of the machine as one run at factor 2). Every finished run is appended to
+OUT/runs.jsonl; --first K starts at robot K (to go on with a matrix), and --table-only prints the
+tables from the runs in OUT/runs.jsonl for the seed without running anything.
 
 Needs `make build` and the devel space sourced (the Makefile's robustness target does both).
 """
 import argparse
+import concurrent.futures
+import json
 import os
 import random
 import re
@@ -166,6 +174,26 @@ def distribution(values):
     return "%.3g / %.3g / %.3g" % (statistics.median(v), p95, v[-1])
 
 
+def run_robot(i, rtf, a, base, base_world):
+    """Robot i (drawn from the seed) at real-time factor rtf: the run's row."""
+    robot = draw_robot(base, random.Random(a.seed * 1000 + i))
+    robot_file = os.path.join(a.out, "robot%d.yaml" % i)
+    with open(robot_file, "w") as f:
+        yaml.safe_dump(robot, f, sort_keys=False)
+    world_file = os.path.join(a.out, "world%d.yaml" % i)
+    with open(world_file, "w") as f:
+        yaml.safe_dump(draw_world(base_world, random.Random(a.seed * 1000 + 500 + i)), f,
+                       sort_keys=False)
+    veh = "robot%d" % i
+    root = os.path.join(a.out, "rtf%g" % rtf, veh)
+    subprocess.run(["rm", "-rf", root])
+    os.makedirs(root)
+    port = 11700 + 10 * i + a.rtf.index(rtf)
+    r = run_one(robot_file, world_file, veh, rtf, root, port, a.odometry)
+    r.update(judge(robot_file, root, veh), robot=veh, rtf=rtf, seed=a.seed)
+    return r
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--robots", type=int, default=20)
@@ -174,6 +202,10 @@ def main():
     ap.add_argument("--no-odometry", dest="odometry", action="store_false",
                     help="camera and wheel stages only (no UAH stage)")
     ap.add_argument("--out", default=os.path.join(PKG, "build", "robustness"))
+    ap.add_argument("--jobs", type=int, default=1, help="robots run at once")
+    ap.add_argument("--first", type=int, default=1, help="the first robot to run")
+    ap.add_argument("--table-only", action="store_true",
+                    help="print the tables from OUT/runs.jsonl; run nothing")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     with open(os.path.join(PKG, "sim", "config", "robot.yaml")) as f:
@@ -181,34 +213,31 @@ def main():
     world_name = "world_full.yaml" if a.odometry else "world.yaml"
     with open(os.path.join(PKG, "sim", "config", world_name)) as f:
         base_world = yaml.safe_load(f)
-    rows = []
-    for i in range(1, a.robots + 1):
-        robot = draw_robot(base, random.Random(a.seed * 1000 + i))
-        robot_file = os.path.join(a.out, "robot%d.yaml" % i)
-        with open(robot_file, "w") as f:
-            yaml.safe_dump(robot, f, sort_keys=False)
-        world_file = os.path.join(a.out, "world%d.yaml" % i)
-        with open(world_file, "w") as f:
-            yaml.safe_dump(draw_world(base_world, random.Random(a.seed * 1000 + 500 + i)), f,
-                           sort_keys=False)
-        for rtf in a.rtf:
-            veh = "robot%d" % i
-            root = os.path.join(a.out, "rtf%g" % rtf, veh)
-            subprocess.run(["rm", "-rf", root])
-            os.makedirs(root)
-            r = run_one(robot_file, world_file, veh, rtf, root, 11700 + i, a.odometry)
-            r.update(judge(robot_file, root, veh), robot=veh, rtf=rtf)
-            rows.append(r)
-            shown = {k: v for k, v in r.items()
-                     if k.endswith(("pct", "px", "err", "cm", "mm", "deg"))}
-            print("%s rtf %g: %s %s (%.0f s) %s" % (veh, rtf, r["result"], r["failure"],
-                                                     r["wall_s"], shown),
-                  file=sys.stderr, flush=True)
+    rows_file = os.path.join(a.out, "runs.jsonl")
+    if a.table_only:
+        with open(rows_file) as f:
+            rows = [r for r in map(json.loads, f) if r.get("seed") == a.seed and r["rtf"] in a.rtf]
+    else:
+        rows = []
+        tasks = [(i, rtf) for i in range(a.first, a.robots + 1) for rtf in a.rtf]
+        with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
+            futures = [pool.submit(run_robot, i, rtf, a, base, base_world) for i, rtf in tasks]
+            for future in concurrent.futures.as_completed(futures):
+                r = future.result()
+                rows.append(r)
+                with open(rows_file, "a") as f:
+                    f.write(json.dumps(r) + "\n")
+                shown = {k: v for k, v in r.items()
+                         if k.endswith(("pct", "px", "err", "cm", "mm", "deg"))}
+                print("%s rtf %g: %s %s (%.0f s) %s" % (r["robot"], r["rtf"], r["result"],
+                                                         r["failure"], r["wall_s"], shown),
+                      file=sys.stderr, flush=True)
+    robots = len({r["robot"] for r in rows})
     print("## Robustness: the whole calibration in robot mode\n")
     print("%d robots drawn from `sim/config/robot.yaml`, each in `%s` with a light gradient, with "
           "seed %d (`/usr/bin/python3 "
           "scripts/robustness.py --robots %d --seed %d`); per real-time factor: runs that "
-          "succeeded, then median / 95th percentile / worst.\n" % (a.robots, world_name, a.seed,
+          "succeeded, then median / 95th percentile / worst.\n" % (robots, world_name, a.seed,
                                                                   a.robots, a.seed))
     keys = [("fx_pct", "fx error %"), ("fy_pct", "fy error %"),
             ("proj_rms_px", "projection RMS px"), ("proj_worst_px", "projection worst px"),

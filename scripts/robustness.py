@@ -174,16 +174,20 @@ def distribution(values):
     return "%.3g / %.3g / %.3g" % (statistics.median(v), p95, v[-1])
 
 
-def run_robot(i, rtf, a, base, base_world):
-    """Robot i (drawn from the seed) at real-time factor rtf: the run's row."""
-    robot = draw_robot(base, random.Random(a.seed * 1000 + i))
+def write_draws(i, a, base, base_world):
+    """Robot i and its room, drawn from the seed, as files: their paths."""
     robot_file = os.path.join(a.out, "robot%d.yaml" % i)
     with open(robot_file, "w") as f:
-        yaml.safe_dump(robot, f, sort_keys=False)
+        yaml.safe_dump(draw_robot(base, random.Random(a.seed * 1000 + i)), f, sort_keys=False)
     world_file = os.path.join(a.out, "world%d.yaml" % i)
     with open(world_file, "w") as f:
         yaml.safe_dump(draw_world(base_world, random.Random(a.seed * 1000 + 500 + i)), f,
                        sort_keys=False)
+    return robot_file, world_file
+
+
+def run_robot(i, rtf, a, robot_file, world_file):
+    """Robot i at real-time factor rtf: the run's row."""
     veh = "robot%d" % i
     root = os.path.join(a.out, "rtf%g" % rtf, veh)
     subprocess.run(["rm", "-rf", root])
@@ -219,9 +223,10 @@ def main():
             rows = [r for r in map(json.loads, f) if r.get("seed") == a.seed and r["rtf"] in a.rtf]
     else:
         rows = []
-        tasks = [(i, rtf) for i in range(a.first, a.robots + 1) for rtf in a.rtf]
+        # Each robot's files are written once, before any of its runs starts.
+        draws = {i: write_draws(i, a, base, base_world) for i in range(a.first, a.robots + 1)}
         with concurrent.futures.ThreadPoolExecutor(max_workers=a.jobs) as pool:
-            futures = [pool.submit(run_robot, i, rtf, a, base, base_world) for i, rtf in tasks]
+            futures = [pool.submit(run_robot, i, rtf, a, *draws[i]) for i in draws for rtf in a.rtf]
             for future in concurrent.futures.as_completed(futures):
                 r = future.result()
                 rows.append(r)

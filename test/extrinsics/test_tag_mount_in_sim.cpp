@@ -142,6 +142,26 @@ TEST(TagMount, WithoutTurnsOrDrivesItSaysWhatIsMissing) {
   EXPECT_THROW(extrinsics::mountFromTags({}, {}, {}), CalibrationError);
 }
 
+TEST(TagMount, StraightOnlyTakesTheYawFromTheDrivesKnownToBeStraightAlone) {
+  const Recorded rec = record(mountNumber(0));
+  std::vector<extrinsics::StillPair> pairs = rec.pairs;
+  for (auto& p : pairs) p.straight = p.motion == extrinsics::StillMotion::kForward;
+  // Fewer straight drives than asked for: without straight_only every drive's chord counts ...
+  extrinsics::TagMountOptions o;
+  o.min_straight = 2;
+  EXPECT_EQ(extrinsics::mountFromTags(rec.stills, pairs, o).straight, 2);
+  // ... with it, the drive back is left out and the yaw is refused, saying why.
+  o.straight_only = true;
+  try {
+    extrinsics::mountFromTags(rec.stills, pairs, o);
+    FAIL() << "no error";
+  } catch (const CalibrationError& e) {
+    EXPECT_NE(std::string(e.what()).find("known to be straight"), std::string::npos) << e.what();
+  }
+  o.min_straight = 1;
+  EXPECT_EQ(extrinsics::mountFromTags(rec.stills, pairs, o).straight, 1);
+}
+
 }  // namespace
 
 TEST(TagMount, StatedSigmaCoversTheScatterOverTheCamerasNoise) {

@@ -49,6 +49,11 @@ struct TagMountOptions {
   double min_drive_m = 0.1;    ///< a straight drive shorter than this says little about the yaw
   double min_spin_rad = 0.15;  ///< a turn smaller than this says little about the axle's place
   int min_straight = 1;        ///< straight drives needed (with a tag seen before and after)
+  /// The yaw from the drives flagged straight alone: fewer than min_straight of them (with a tag
+  /// seen before and after) is a CalibrationError. Otherwise, with fewer, the yaw comes from every
+  /// drive's chord at half its measured turn, which holds only where a drive turned evenly along
+  /// its length.
+  bool straight_only = false;
   int min_spins = 2;           ///< turns on the spot needed
   /// A drive made with the calibrated trim is taken as straight (no turn) unless the tags seen
   /// before and after say it turned by more than this [rad]: a robot's short hops turn by a few

@@ -141,12 +141,16 @@ struct WheelRunOptions {
   /// and before leaving, turn on the spot this many times between stills (by extrinsics_spin_rad
   /// towards the side the tags are on and back, alternately), then drive extrinsics_drives / 2
   /// hops of extrinsics_drive_m straight forward and as many back (short enough that a tag stays
-  /// in view), and fit the mount to the tags of every still of the stage (the straight hops give
-  /// the yaw, the turns the camera's place). 0 spins: no extrinsics.
+  /// in view), and fit the mount to the tags of every still of the stage (the hops forward but the
+  /// first give the yaw, the turns the camera's place). 0 spins: no extrinsics.
   int extrinsics_spins = 0;
   double extrinsics_spin_rad = 0.3;
   double extrinsics_drive_m = 0.12;
-  int extrinsics_drives = 6;  ///< half of them forward, then as many back
+  int extrinsics_drives = 10;  ///< half of them forward, then as many back
+  /// Hops forward (but the first) with a tag seen before and after that the yaw needs; fewer and
+  /// the mount is refused. With hops, the yaw comes from these alone
+  /// (TagMountOptions::straight_only); without (extrinsics_drive_m 0), from the iteration's drives.
+  int extrinsics_min_hops = 3;
   /// The mount is refused (no extrinsics, the stage goes on) when one standard deviation of it
   /// (the jackknife over the stills) moves a floor point 0.5 m ahead by more than this [m]
   /// (extrinsics::floorSigmaM), or when too few stills give no standard deviation.

@@ -204,8 +204,10 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
       }
     }
   }
-  // The drives known to be straight give the yaw when there are enough of them.
-  if (static_cast<int>(straight_drives.size()) >= options.min_straight) drives = straight_drives;
+  // The drives known to be straight give the yaw when there are enough of them (alone, when
+  // straight_only).
+  if (options.straight_only || static_cast<int>(straight_drives.size()) >= options.min_straight)
+    drives = straight_drives;
   out.straight = static_cast<int>(drives.size());
   out.spins = static_cast<int>(spins.size());
   if (out.spins < options.min_spins) {
@@ -215,10 +217,11 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
         " rad or more with a tag seen before and after, got " + std::to_string(out.spins));
   }
   if (out.straight < options.min_straight) {
-    throw CalibrationError("the camera's yaw needs " + std::to_string(options.min_straight) +
-                           " straight drive(s) of " + formatNumber(options.min_drive_m, 3) +
-                           " m or more with a tag seen before and after, got " +
-                           std::to_string(out.straight));
+    throw CalibrationError(
+        "the camera's yaw needs " + std::to_string(options.min_straight) +
+        (options.straight_only ? " drive(s) known to be straight" : " straight drive(s)") + " of " +
+        formatNumber(options.min_drive_m, 3) + " m or more with a tag seen before and after, got " +
+        std::to_string(out.straight));
   }
 
   // The axle's middle a in the levelled view is the turns' fixed point: a = R(turn)·a + shift.
@@ -267,11 +270,15 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   // pose and its noise, which a residual per corner would count as independent.
   std::vector<CameraMount> replicas;
   std::vector<TagStill> without = stills;
+  // A replica needs the data to determine the mount, not the estimate's minimum of straight
+  // drives: a still between two drives takes both away.
+  TagMountOptions replica_options = options;
+  replica_options.min_straight = 1;
   for (size_t i = 0; i < stills.size(); ++i) {
     if (stills[i].tags.empty()) continue;
     without[i].tags.clear();
     try {
-      replicas.push_back(solveMount(without, pairs, options).mount);
+      replicas.push_back(solveMount(without, pairs, replica_options).mount);
     } catch (const CalibrationError&) {
       // Without this still the data no longer determine the mount: it adds no replica.
     }

@@ -57,6 +57,12 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_drive_m: must be within [0, 0.5] [m]");
   if (extrinsics_drives < 0 || extrinsics_drives > 20 || extrinsics_drives % 2 != 0)
     throw ConfigError("extrinsics_drives: must be an even number within [0, 20]");
+  if (extrinsics_spins > 0 && extrinsics_drive_m > 0 && extrinsics_drives > 0 &&
+      (extrinsics_min_hops < 1 || extrinsics_min_hops > extrinsics_drives / 2 - 1)) {
+    throw ConfigError(
+        "extrinsics_min_hops: must be within [1, extrinsics_drives / 2 - 1] (the first hop forward "
+        "gives no yaw)");
+  }
   if (!(extrinsics_max_floor_sigma_m > 0))
     throw ConfigError("extrinsics_max_floor_sigma_m: must be > 0 [m]");
   if (extrinsics_spins > 0) extrinsics.validate();
@@ -377,14 +383,16 @@ void WheelRun::recordStill() {
         since_still_ == SinceStill::kForward    ? extrinsics::StillMotion::kForward
         : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
                                                 : extrinsics::StillMotion::kSpin;
-    // The stage's own short drives come after the trim converged: straight, but for the first.
-    // The turns on the spot before it left each wheel's gearbox play taken up the way that wheel
-    // last turned, opposite ways: the first hop starts with one wheel crossing its play while the
-    // other drives, a turn made at the start rather than along the hop, whose chord is then not
-    // at half the turn. It takes the play up on both wheels; its stills count, its drive not for
-    // the yaw.
+    // The stage's own short hops forward come after the trim converged: straight, but for the
+    // first. The turns on the spot before it left each wheel's gearbox play taken up the way that
+    // wheel last turned, opposite ways: the first hop starts with one wheel crossing its play
+    // while the other drives, a turn made at the start rather than along the hop, whose chord is
+    // then not at half the turn. It takes the play up on both wheels; its stills count, its drive
+    // not for the yaw. The hops back are not known to be straight: the trim was fitted forward,
+    // and a robot's wheels differ backward (gains, breakaway) and cross their play again at the
+    // reversal; on the robustness draws they turned by 1-6 deg, most of it at their start.
     const bool straight = stage_ == WheelRunStage::kExtrinsics &&
-                          m != extrinsics::StillMotion::kSpin && extrinsics_drives_done_ > 1;
+                          m == extrinsics::StillMotion::kForward && extrinsics_drives_done_ > 1;
     still_pairs_.push_back({now - 1, now, m, straight});
   }
   since_still_ = SinceStill::kNone;
@@ -393,7 +401,12 @@ void WheelRun::recordStill() {
 void WheelRun::finishExtrinsics() {
   extrinsics_done_ = true;
   try {
-    extrinsics_result_ = extrinsics::mountFromTags(stills_, still_pairs_, options_.extrinsics);
+    extrinsics::TagMountOptions mount_options = options_.extrinsics;
+    if (options_.extrinsics_drive_m > 0 && options_.extrinsics_drives > 0) {
+      mount_options.straight_only = true;  // the hops forward (see recordStill)
+      mount_options.min_straight = options_.extrinsics_min_hops;
+    }
+    extrinsics_result_ = extrinsics::mountFromTags(stills_, still_pairs_, mount_options);
     const extrinsics::TagMountResult& x = extrinsics_result_;
     if (!x.has_sigma) {
       throw CalibrationError(

@@ -518,6 +518,38 @@ TEST(ModelChoice, TheFirstModelTheGatePassesIsWritten) {
   EXPECT_EQ(pinned.refusals("; ").find("plumb_bob"), std::string::npos);  // one model: no name
 }
 
+// A term kept on all the views (here every term, by a significance of 0) that the two halves of
+// them disagree on is fixed at 0 before the model is refused: the first simpler term set the gate
+// passes, and that explains the corners as well, is written, and the reason says so.
+TEST(ModelChoice, ATermTheHalvesDisagreeOnIsFixedBeforeTheModelIsRefused) {
+  const Truth t;
+  CalibrationOptions o = options();
+  o.fallback_models.clear();
+  o.min_term_significance = 0;
+  const std::vector<std::vector<cv::Point2f>> views =
+      observe(t, boardPoses(t, 20, 60, 250, 3), 0.2, 5);
+  const CalibrationResult full = calibrate(views, kImage, testBoard(), o);
+  ASSERT_EQ(full.term_set, 2) << full.fitted_terms;
+  CalibrationOptions s = o;
+  s.max_term_set = 1;
+  const CalibrationResult simpler = calibrate(views, kImage, testBoard(), s);
+  ASSERT_EQ(simpler.term_set, 1) << simpler.fitted_terms;
+  std::printf("halves ratio: all terms %.2f, k3 fixed %.2f\n", full.halves.ratio,
+              simpler.halves.ratio);
+  ASSERT_LT(simpler.halves.ratio, full.halves.ratio);
+  QualityGateOptions gate;
+  gate.max_halves_ratio = 0.5 * (full.halves.ratio + simpler.halves.ratio);
+  // The views leave the lower half uncertain; this test is about the halves.
+  gate.max_lower_half_uncertainty_px = 1e3;
+  ASSERT_FALSE(checkQuality(full, gate).empty());
+  const ModelChoice choice = calibrateChoosingModel(views, kImage, testBoard(), o, gate);
+  ASSERT_TRUE(choice.passed) << choice.refusals("; ");
+  EXPECT_EQ(choice.result.term_set, 1);
+  EXPECT_EQ(choice.result.fitted_terms, simpler.fitted_terms);
+  EXPECT_NE(choice.result.selection_reason.find("halves differed"), std::string::npos)
+      << choice.result.selection_reason;
+}
+
 // A corner detected wrong at the image's edge (12 px off), in a view seen three times while the
 // robot stood still, among 12 views of a plumb_bob lens: a four-term equidistant fit bends
 // towards it and explains the corners "better" counted at their full residuals, and is 9.9 px off

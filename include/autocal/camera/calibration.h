@@ -54,6 +54,9 @@ struct CalibrationOptions {
   enum class Selection { kSignificance, kHoldout };
   Selection selection = Selection::kSignificance;
   double min_term_significance = 3.0;
+  /// The richest term set fitted (0 the simplest); -1: every set. calibrateChoosingModel lowers it
+  /// for a model whose halves' cross-validation fails with a term set the significance kept.
+  int max_term_set = -1;
   double selection_margin = 0.02;
   /// Held-out folds for kHoldout (view i is held out in fold i mod folds); leave-one-out when
   /// there are no more views than this.
@@ -104,6 +107,7 @@ struct CalibrationResult {
   std::vector<double> std_devs;
   /// Which distortion terms were fitted, e.g. "k1 k2 p1 p2 (k3 fixed at 0)".
   std::string fitted_terms;
+  int term_set = 0;  ///< the index of fitted_terms among the model's term sets (0 the simplest)
   /// Held-out RMS of the chosen term set during kHoldout selection [px] (0 otherwise).
   double selection_holdout_rms_px = 0;
   /// Why the terms were chosen, e.g. "k3 = 0.16 +- 0.13 (t 1.3 < 3): fixed".

@@ -270,10 +270,10 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   // pose and its noise, which a residual per corner would count as independent.
   std::vector<CameraMount> replicas;
   std::vector<TagStill> without = stills;
-  // A replica needs the data to determine the mount, not the estimate's minimum of straight
-  // drives: a still between two drives takes both away.
+  // A replica needs the data to determine the mount, not the estimate's minimum of drives known to
+  // be straight: a still between two drives takes both away.
   TagMountOptions replica_options = options;
-  replica_options.min_straight = 1;
+  if (options.straight_only) replica_options.min_straight = 1;
   for (size_t i = 0; i < stills.size(); ++i) {
     if (stills[i].tags.empty()) continue;
     without[i].tags.clear();

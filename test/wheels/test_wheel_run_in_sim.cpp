@@ -419,6 +419,25 @@ TEST(WheelRunMountInSim, HopsBackThatCurveGiveNoYaw) {
   EXPECT_NEAR(x->mount.yaw_rad, robot.camera.yaw_rad, 0.5 * M_PI / 180);
 }
 
+// The hops the yaw needs must be hops the stage drives forward (the first not counted): asking for
+// more is a ConfigError naming the key, before the robot moves.
+TEST(WheelRunOptions, ExtrinsicsMinHopsWithinTheHopsForward) {
+  wheels::WheelRunOptions o;
+  o.extrinsics_spins = 4;
+  EXPECT_NO_THROW(o.validate());
+  o.extrinsics_min_hops = o.extrinsics_drives / 2;
+  try {
+    o.validate();
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("extrinsics_min_hops"), std::string::npos) << e.what();
+  }
+  o.extrinsics_min_hops = 0;
+  EXPECT_THROW(o.validate(), ConfigError);
+  o.extrinsics_spins = 0;  // no extrinsics: the hops do not matter
+  EXPECT_NO_THROW(o.validate());
+}
+
 TEST(WheelRunDeadbandGuesses, MinimaWithinTheProbeStepAreAveragedOthersKept) {
   const wheels::DeadbandGuesses a = wheels::deadbandGuesses(0.10, 0.11, 0.01);
   EXPECT_DOUBLE_EQ(a.left, 0.105);

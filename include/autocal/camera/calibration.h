@@ -72,6 +72,14 @@ struct CalibrationOptions {
   double outlier_corner_min_px = 1.0;
   double max_outlier_corner_fraction = 0.2;
   int max_outlier_rounds = 3;
+  /// A view the rest disagree with: when a model's halves' cross-validation fails (after the
+  /// simpler term sets), calibrateChoosingModel drops the view with the largest RMS if it is at
+  /// least halves_outlier_view_factor times the median view's, refits, and takes the fit if the
+  /// gate passes it; up to max_halves_outlier_views views, one at a time. Below
+  /// outlier_view_min_px such a view is not dropped as an outlier, yet one view of a wide lens
+  /// (3 times the median) pulled k3 and set the halves 5.3 times their uncertainty apart.
+  double halves_outlier_view_factor = 2.0;
+  int max_halves_outlier_views = 2;
   /// Views kept after dropping outliers must stay at least this fraction of the input.
   double min_kept_fraction = 0.5;
   /// Camera matrix to start every fit from (e.g. camera_info's nominal model; its distortion is

@@ -778,6 +778,64 @@ ModelDifference modelDifference(const CameraIntrinsics& fit, const CameraIntrins
   return out;
 }
 
+/// A view the rest disagree with (CalibrationOptions::halves_outlier_view_factor): while the
+/// halves of the views disagree, the view with the largest RMS, if it is that many times the
+/// median view's, is left out and the model refitted (its terms chosen again); the first refit the
+/// gate passes replaces `result`, with the views left out among its dropped views.
+void dropViewsTheHalvesDisagreeOver(const std::vector<std::vector<cv::Point2f>>& views,
+                                    const cv::Size& image_size, const BoardSpec& board,
+                                    const CalibrationOptions& options,
+                                    const QualityGateOptions& gate, CalibrationResult* result,
+                                    std::vector<std::string>* reasons) {
+  std::vector<DroppedView> left_out;
+  CalibrationResult current = *result;
+  for (int n = 0; n < options.max_halves_outlier_views && halvesDisagree(current, gate); ++n) {
+    const std::vector<double>& rms = current.per_view_rms_px;
+    if (rms.size() < 2) return;
+    const size_t worst =
+        static_cast<size_t>(std::max_element(rms.begin(), rms.end()) - rms.begin());
+    std::vector<double> sorted = rms;
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double median = sorted[sorted.size() / 2];
+    if (!(rms[worst] >= options.halves_outlier_view_factor * median)) return;
+    left_out.push_back(
+        {current.used_views[worst],
+         fmt("a view the others disagree with: RMS %.3f px, %.1f x the median view; with it the "
+             "halves of the views differed %.1f times their uncertainty",
+             rms[worst], rms[worst] / median, current.halves.ratio) +
+             fmt(" (limit %.1f)", gate.max_halves_ratio)});
+    std::vector<std::vector<cv::Point2f>> kept;
+    std::vector<int> original;
+    for (size_t v = 0; v < views.size(); ++v) {
+      const bool out = std::any_of(left_out.begin(), left_out.end(), [&](const DroppedView& d) {
+        return d.index == static_cast<int>(v);
+      });
+      if (out) continue;
+      kept.push_back(views[v]);
+      original.push_back(static_cast<int>(v));
+    }
+    try {
+      current = calibrate(kept, image_size, board, options);
+    } catch (const CalibrationError&) {
+      return;
+    }
+    for (int& u : current.used_views) u = original[static_cast<size_t>(u)];
+    for (DroppedView& d : current.dropped_views) d.index = original[static_cast<size_t>(d.index)];
+    if (!checkQuality(current, gate).empty()) continue;
+    current.dropped_views.insert(current.dropped_views.end(), left_out.begin(), left_out.end());
+    std::string which;
+    for (const DroppedView& d : left_out)
+      which += (which.empty() ? "" : ", ") + std::to_string(d.index);
+    current.selection_reason = "view(s) " + which +
+                               " left out: the halves of the views disagreed with them; " +
+                               current.selection_reason;
+    *result = std::move(current);
+    reasons->clear();
+    return;
+  }
+}
+
 }  // namespace
 
 ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,
@@ -837,6 +895,8 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
       result[k] = std::move(r);
       reasons[k].clear();
     }
+    if (!reasons[k].empty() && halvesDisagree(result[k], gate))
+      dropViewsTheHalvesDisagreeOver(views, image_size, board, o, gate, &result[k], &reasons[k]);
   }
   const auto passes = [&](size_t k) { return fitted[k] && reasons[k].empty(); };
   const auto sureness = [&](size_t k) {

@@ -57,6 +57,11 @@ void CameraCalibrationConfig::validate() const {
               "must be > 1");
   checkConfig(calibration.outlier_corner_factor > 1, "calibration.outlier_corner_factor",
               "must be > 1");
+  checkConfig(calibration.halves_outlier_view_factor > 1,
+              "calibration.halves_outlier_view_factor", "must be > 1");
+  checkConfig(calibration.max_halves_outlier_views >= 0 &&
+                  calibration.max_halves_outlier_views <= 5,
+              "calibration.max_halves_outlier_views", "must be within [0, 5]");
   checkConfig(
       calibration.max_outlier_corner_fraction > 0 && calibration.max_outlier_corner_fraction < 1,
       "calibration.max_outlier_corner_fraction", "must be in (0, 1)");
@@ -148,6 +153,10 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.calibration.outlier_corner_min_px = k.required<double>("outlier_corner_min_px");
     c.calibration.max_outlier_corner_fraction = k.required<double>("max_outlier_corner_fraction");
     c.calibration.max_outlier_rounds = k.required<int>("max_outlier_rounds");
+    c.calibration.halves_outlier_view_factor =
+        k.optional<double>("halves_outlier_view_factor", c.calibration.halves_outlier_view_factor);
+    c.calibration.max_halves_outlier_views =
+        k.optional<int>("max_halves_outlier_views", c.calibration.max_halves_outlier_views);
     c.calibration.min_kept_fraction = k.required<double>("min_kept_fraction");
     k.finish();
   }

@@ -8,9 +8,10 @@ Duckietown's plumb_bob calibrations see as 317-361; cx 300-336, cy 210-256; k1 -
 duties, backward gains, a gain drift, gearbox backlash and wheel slip within their documented
 ranges, and the transport of robot.yaml. Each robot's room is world_full.yaml (world.yaml with
 --no-odometry) lit by a light gradient (world YAML `light_gradient`, up to 0.1 per metre along each
-axis). Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and UAH stages;
---no-odometry: the first two) at each real-time factor given (1: a robot's own computer; 3: one
-three times slower), on its own master. From the simulator's truth (compare_camera,
+axis), its floor tags laid as a person lays them (world YAML `floor_tag_placement`: sigma 1-4 mm
+and 0.6-2 deg). Each robot runs `rosrun autocal calibrate_sim odometry:=true` (camera, wheel and
+UAH stages; --no-odometry: the first two) at each real-time factor given (1: a robot's own
+computer; 3: one three times slower), on its own master. From the simulator's truth (compare_camera,
 compare_wheels, compare_extrinsics, the odometry file against the robot's radii and wheelbase) it
 reports per run the result and reason, fx/fy error, the whole-image projection difference, the
 trim error, the drift over 2 m, the errors of Ed and the wheelbase, and the ground projection's
@@ -87,6 +88,16 @@ def draw_world(base, rng):
     w["light_gradient"] = {"x_per_m": round(rng.uniform(-0.1, 0.1), 3),
                            "y_per_m": round(rng.uniform(-0.1, 0.1), 3)}
     return w
+
+
+def draw_tag_placement(world, rng):
+    """The floor tags as a person lays them (world YAML `floor_tag_placement`): each off its place
+    by a few millimetres and turned by a degree or two (sigma 1-4 mm, 0.6-2 deg), drawn from a
+    generator of its own so that the other draws stay those of the same seed."""
+    world["floor_tag_placement"] = {"position_sigma_m": round(rng.uniform(0.001, 0.004), 4),
+                                    "yaw_sigma_rad": round(rng.uniform(0.01, 0.035), 4),
+                                    "seed": rng.randrange(1, 10000)}
+    return world
 
 
 def figures(pattern, text):
@@ -181,7 +192,8 @@ def write_draws(i, a, base, base_world):
         yaml.safe_dump(draw_robot(base, random.Random(a.seed * 1000 + i)), f, sort_keys=False)
     world_file = os.path.join(a.out, "world%d.yaml" % i)
     with open(world_file, "w") as f:
-        yaml.safe_dump(draw_world(base_world, random.Random(a.seed * 1000 + 500 + i)), f,
+        world = draw_world(base_world, random.Random(a.seed * 1000 + 500 + i))
+        yaml.safe_dump(draw_tag_placement(world, random.Random(a.seed * 1000 + 700 + i)), f,
                        sort_keys=False)
     return robot_file, world_file
 

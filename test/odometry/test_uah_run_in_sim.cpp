@@ -5,16 +5,22 @@
 // the right wheel's distance per pulse within 0.5 %, the round detector within one pulse of the
 // true pulses per round; a symmetric world is refused with a clear reason.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <memory>
 #include <random>
 
 #include "autocal/odometry/uah_run.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/simulation.h"
+#include "autocal/wheels/wheel_run.h"
 #include "support/odometry_in_sim.h"
+#include "support/wheels_in_sim.h"
 
 using namespace autocal;
 using odometry::UahExperiment;
@@ -168,18 +174,25 @@ TEST(UahRunInSim, DefaultRobot) {
                  "default");
 }
 
+namespace {
+
+/// UAH on `robot` in the odometry world, its readings and commands through the robot's links.
+Outcome runWithTransport(const sim::RobotConfig& robot) {
+  sim::Simulation simulation(robot, world("world_odometry.yaml"), sim::SimulationOptions());
+  std::mt19937_64 rng(1);
+  test::UahSensorHooks hooks;
+  hooks.transport = true;
+  return test::runUahInSim(simulation, optionsFor(robot, 0.0318, 0.1), rng, 900, hooks);
+}
+
+}  // namespace
+
 // The default robot as a real Duckiebot behaves (robot.yaml: static friction, backward gains that
 // differ, a sagging battery, gearbox backlash, wheel slip, readings and commands 30 ms late).
 TEST(UahRunInSim, RealisticRobot) {
   const sim::RobotConfig robot =
       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
-  sim::Simulation simulation(robot, world("world_odometry.yaml"), sim::SimulationOptions());
-  std::mt19937_64 rng(1);
-  test::UahSensorHooks hooks;
-  hooks.transport = true;
-  expectAccurate(robot,
-                 test::runUahInSim(simulation, optionsFor(robot, 0.0318, 0.1), rng, 900, hooks),
-                 "realistic");
+  expectAccurate(robot, runWithTransport(robot), "realistic");
 }
 
 TEST(UahRunInSim, LeftWheel2PercentLargerWideWheelbase) {
@@ -305,4 +318,135 @@ TEST(UahRunInSim, TurnsBackToTheStartingHeadingBeforeTheStraightRuns) {
   // the error of its turns' sum (its pivots' pulses per round, about a degree).
   EXPECT_LT(std::abs(turned.straight_start_yaw_rad.front()), 3 * tolerance + 1.5 * M_PI / 180);
   EXPECT_TRUE(turned.done) << turned.failure;
+}
+
+namespace {
+
+// Straight runs whose duties are those the kinematics command for equal wheel speeds with a known
+// trim; a run back and a forward run not accepted carry other duties and must not count.
+std::vector<odometry::StraightRun> runsWithTrim(const wheels::KinematicsParams& p, double trim) {
+  wheels::KinematicsParams q = p;
+  q.trim = trim;
+  const WheelDuties d = wheels::speedsToDuties(q, {4.0, 4.0});
+  std::vector<odometry::StraightRun> runs(3);
+  runs[0].mean_left_duty = d.left, runs[0].mean_right_duty = d.right;
+  runs[1].forward = false, runs[1].mean_left_duty = 0.3, runs[1].mean_right_duty = 0.2;
+  runs[2].mean_left_duty = 0.2, runs[2].mean_right_duty = 0.3;
+  return runs;
+}
+
+wheels::KinematicsParams motors() {
+  wheels::KinematicsParams p;
+  p.deadband_left = 0.09;
+  p.deadband_right = 0.11;
+  p.trim = 0.02;
+  return p;
+}
+
+}  // namespace
+
+TEST(StraightRunTrim, TheTrimThatCommandsTheForwardRunsDutiesThroughTheDeadbands) {
+  const wheels::KinematicsParams p = motors();
+  const std::vector<odometry::StraightRun> runs = runsWithTrim(p, 0.012);
+  EXPECT_NEAR(odometry::straightRunTrim(runs, {0, 1}, p), 0.012, 1e-9);
+  // The deadbands matter: without them the same duties say another trim.
+  wheels::KinematicsParams no_deadbands = p;
+  no_deadbands.deadband_left = no_deadbands.deadband_right = 0;
+  EXPECT_GT(std::abs(odometry::straightRunTrim(runs, {0}, no_deadbands) - 0.012), 0.005);
+  EXPECT_TRUE(std::isnan(odometry::straightRunTrim(runs, {1}, p)));  // back only
+  EXPECT_TRUE(std::isnan(odometry::straightRunTrim(runs, {}, p)));
+}
+
+TEST(StraightRunTrim, ReplacesOnlyTheKinematicsFilesTrimWhenTheyDisagree) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("autocal_straight_trim_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const std::string path = wheels::kinematicsPath(dir.string(), "robot");
+  const wheels::KinematicsParams p = motors();
+  const std::vector<odometry::StraightRun> runs = runsWithTrim(p, 0.012);
+  // No file: nothing compared, nothing written.
+  EXPECT_FALSE(odometry::refineKinematicsTrim(path, runs, {0}, 0).compared);
+  EXPECT_FALSE(std::filesystem::exists(path));
+
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  wheels::writeKinematicsFile(path, p);
+  // Within the bound, or never: the file stays.
+  for (const double bound : {0.01, -1.0}) {
+    const odometry::TrimRefinement kept = odometry::refineKinematicsTrim(path, runs, {0}, bound);
+    EXPECT_TRUE(kept.compared);
+    EXPECT_FALSE(kept.written);
+    EXPECT_EQ(wheels::readKinematicsFile(path).trim, 0.02);
+  }
+  const odometry::TrimRefinement r = odometry::refineKinematicsTrim(path, runs, {0}, 0.0005);
+  EXPECT_TRUE(r.written);
+  EXPECT_EQ(r.file_trim, 0.02);
+  EXPECT_NEAR(r.straight_trim, 0.012, 1e-9);
+  const wheels::KinematicsParams after = wheels::readKinematicsFile(path);
+  EXPECT_NEAR(after.trim, 0.012, 1e-6);
+  EXPECT_EQ(after.deadband_left, p.deadband_left);
+  EXPECT_EQ(after.deadband_right, p.deadband_right);
+  EXPECT_EQ(after.gain, p.gain);
+  // There was no .prev: the file replaced became it.
+  EXPECT_EQ(wheels::readKinematicsFile(path + ".prev").trim, 0.02);
+
+  // In a run the wheel stage kept the file from before the run as .prev: that one stays.
+  std::filesystem::remove(path + ".prev");
+  wheels::KinematicsParams before_run = p;
+  before_run.trim = 0.03;
+  wheels::writeKinematicsFile(path, before_run);
+  wheels::writeKinematicsFile(path, p);
+  ASSERT_TRUE(odometry::refineKinematicsTrim(path, runs, {0}, 0).written);
+  EXPECT_NEAR(wheels::readKinematicsFile(path).trim, 0.012, 1e-6);
+  EXPECT_EQ(wheels::readKinematicsFile(path + ".prev").trim, 0.03);
+  std::filesystem::remove_all(dir);
+}
+
+// Floor tags laid as a person lays them (3 mm, 0.03 rad; world.yaml's placement seeds 1 and 5):
+// the wheel stage's trim follows the tags' headings and the realistic robot drifts over the bound;
+// the trim of the UAH straight runs, held by the encoders and Ed with no tag, through the wheel
+// stage's gain and deadbands, drives it straight (the truth's drift at 0.15, 0.25 and 0.4 m/s).
+TEST(StraightRunTrim, CorrectsTheTrimOfFloorTagsLaidTurned) {
+  const sim::RobotConfig robot =
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  const test::UahInSim u = runWithTransport(robot);
+  ASSERT_TRUE(u.done) << u.failure;
+
+  std::ifstream in(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string exact =
+      "floor_tag_placement: {position_sigma_m: 0.0, yaw_sigma_rad: 0.0, seed: 1}";
+  ASSERT_NE(text.str().find(exact), std::string::npos);
+  for (const int seed : {1, 5}) {
+    std::string yaml = text.str();
+    yaml.replace(yaml.find(exact), exact.size(),
+                 "floor_tag_placement: {position_sigma_m: 0.003, yaw_sigma_rad: 0.03, seed: " +
+                     std::to_string(seed) + "}");
+    wheels::WheelRunOptions wo;
+    wo.kinematics.deadband_left = wo.kinematics.deadband_right =
+        std::max(robot.breakaway_duty_left, robot.breakaway_duty_right) + 0.01;
+    wheels::WheelRun wheel_run(wo, robot.camera.truth);
+    const test::WheelsInSim w = test::runWheelsInSim(
+        robot, sim::parseWorldConfig(yaml, "world.yaml"), wheel_run, {});
+    ASSERT_TRUE(w.done) << w.failure;
+    double wheel_worst_m = 0;
+    for (const test::StraightDrift& d : test::straightDrifts(robot, w.result))
+      wheel_worst_m = std::max(wheel_worst_m, d.drift_m);
+    wheels::KinematicsParams refined = w.result;
+    refined.trim =
+        odometry::straightRunTrim(u.straight_runs, u.result.straight.accepted_runs, w.result);
+    ASSERT_TRUE(std::isfinite(refined.trim));
+    std::printf("placement seed %d: trim of the wheel stage %.5f (worst drift %.1f cm), of the "
+                "straight runs %.5f\n",
+                seed, w.result.trim, 100 * wheel_worst_m, refined.trim);
+    EXPECT_GT(wheel_worst_m, 0.03);  // the tags laid turned do bias the wheel stage
+    // ... by more than the stage lets pass: it writes the straight runs' trim.
+    EXPECT_GT(std::abs(refined.trim - w.result.trim),
+              odometry::UahRunOptions().max_trim_disagreement);
+    for (const test::StraightDrift& d : test::straightDrifts(robot, refined)) {
+      std::printf("  %.2f m/s: %.1f cm (bound %.1f)\n", d.speed_mps, 100 * d.drift_m,
+                  100 * d.bound_m);
+      EXPECT_LE(d.drift_m, d.bound_m) << d.speed_mps << " m/s";
+    }
+  }
 }

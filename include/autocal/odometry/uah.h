@@ -105,6 +105,13 @@ struct StraightRun {
   /// 1 − (start-to-end distance) / (path length) by the encoders' dead reckoning: what the
   /// heading's excursions cost the start-to-end distance against the wheel's path [1].
   double shortening = 0.0;
+  /// The duties commanded over the run's second half (by the reference wheel's pulses), mean
+  /// magnitudes, and the run's direction: the heading held by the encoders with Ed, so a forward
+  /// run's duties are those that drive the robot straight, whatever the floor tags say (0: not
+  /// recorded).
+  double mean_left_duty = 0.0;
+  double mean_right_duty = 0.0;
+  bool forward = true;
 };
 
 struct StraightRunOptions {

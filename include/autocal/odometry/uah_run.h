@@ -33,6 +33,7 @@
 #include "autocal/odometry/uah.h"
 #include "autocal/sensors.h"
 #include "autocal/stage.h"
+#include "autocal/wheels/kinematics.h"
 
 namespace autocal {
 namespace odometry {
@@ -78,6 +79,14 @@ struct UahRunOptions : EncoderDriveOptions {
   int max_face_turns = 6;
   /// Forward straight runs stop and fail when a valid range reading is this close [m].
   double min_clearance_m = 0.12;
+  /// The kinematics file the wheel stage wrote before this stage (<calibration_root>/kinematics/
+  /// <veh>.yaml) gets the straight runs' trim (straightRunTrim) when its own differs from it by
+  /// more than this (0: always). The wheel stage takes its trim from the floor tags' headings, and
+  /// tags laid a degree or two turned bias it (2.6-13 cm of drift over 2 m in the simulator, its
+  /// trim 0.0008-0.0034 off); the straight runs hold the heading by the encoders and Ed, which no
+  /// tag enters, but carry Ed's error (0.0000-0.0008 off: on tags laid exactly the wheel stage's is
+  /// the better). Negative: the file is never touched.
+  double max_trim_disagreement = 0.0015;
   /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
   RoundDetectionOptions detection;
   /// A turn whose valid range readings spread (standard deviation) less than this shows a circular
@@ -129,6 +138,29 @@ struct UahTurn {
 /// `turns` are the stage's pivots and spin, `elapsed_s` its duration.
 StageResult writeUahStageFile(const StageOutput& output, const UahResult& result,
                               const std::vector<UahTurn>& turns, double elapsed_s);
+
+/// The trim with which the kinematics `params` (gain, deadbands) command the duties that held the
+/// robot straight on the forward straight runs among `accepted` (indices into `runs`), their mean:
+/// wheels::trimFromSpeedRatio of the right duty over the left one, each with its deadband removed
+/// (equal commanded wheel speeds give duties in the ratio (gain + trim)/(gain − trim)). NaN when
+/// no accepted forward run recorded its duties.
+double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
+                       const wheels::KinematicsParams& params);
+
+/// What the odometry stage did to the kinematics file's trim.
+struct TrimRefinement {
+  bool compared = false;  ///< a kinematics file and an accepted forward run were there
+  bool written = false;   ///< the file got the straight runs' trim
+  double file_trim = 0, straight_trim = 0;
+};
+
+/// Compares the trim of the kinematics file at `path`, if it exists, with the straight runs'
+/// (straightRunTrim with the file's gain and deadbands) and writes the latter into it, every other
+/// key kept, when they differ by more than `max_disagreement` (negative: never). Atomically; an
+/// existing `.prev` stays (in a run, the file from before the wheel stage), else the file replaced
+/// becomes it. Throws ConfigError or IoError for a file that cannot be read or written.
+TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<StraightRun>& runs,
+                                    const std::vector<int>& accepted, double max_disagreement);
 
 class UahRun : public Stage {
  public:
@@ -262,6 +294,8 @@ class UahRun : public Stage {
   bool awaiting_length_ = false;
   double awaiting_since_s_ = 0;
   double run_right_pulses_ = 0, run_max_dev_rad_ = 0, run_shortening_ = 0;
+  double run_duty_sum_[2] = {0, 0};  ///< left, right over the run's second half
+  int run_duty_count_ = 0;
   std::vector<StraightRun> straight_runs_;
 };
 

@@ -429,6 +429,26 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     run.right_pulses = std::abs(history.back().right - start.right);
     run.max_heading_deviation_rad = maxHeadingDeviationRad(cumulative, heading);
     run.shortening = pathShortening(cumulative, heading);
+    // The duties commanded over the run's second half by the reference wheel's pulses, as the live
+    // run keeps them (straightRunTrim).
+    double half_s = m.stop_s;
+    for (const Sample& s : history) {
+      if (2 * std::abs(s.right - start.right) >= run.right_pulses) {
+        half_s = s.stamp_s;
+        break;
+      }
+    }
+    double duty_left = 0, duty_right = 0;
+    int duties = 0;
+    for (const auto& c : rec.commands) {
+      if (c.stamp_s < half_s || c.stamp_s >= m.stop_s) continue;
+      duty_left += std::abs(c.left), duty_right += std::abs(c.right), ++duties;
+      run.forward = c.right > 0;
+    }
+    if (duties > 0) {
+      run.mean_left_duty = duty_left / duties;
+      run.mean_right_duty = duty_right / duties;
+    }
     const double odometry_m = run.right_pulses * o.nominal.right_m_per_pulse;
     if (std::abs(length_m / odometry_m - 1) > o.max_length_mismatch) {
       throw CalibrationError("straight run " + std::to_string(k + 1) + " (at " + at(m.start_s) +

@@ -3,9 +3,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
 #include "autocal/errors.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
 #include "autocal/odometry/calibration_file.h"
 
@@ -69,6 +71,8 @@ void UahRunOptions::validate() const {
   checkConfig(max_face_turns >= 0 && max_face_turns <= 20, "max_face_turns",
               "must be within [0, 20] (0: the straight runs go where the spin leaves the robot)");
   checkConfig(min_clearance_m >= 0, "min_clearance_m", "must be >= 0 [m]");
+  checkConfig(max_trim_disagreement < 0.1, "max_trim_disagreement",
+              "must be < 0.1 (negative: the kinematics file's trim is never replaced)");
   checkConfig(max_decorrelation_fraction > 0 && max_decorrelation_fraction <= 0.5,
               "max_decorrelation_fraction", "must be within (0, 0.5]");
   checkConfig(min_range_spread_m >= 0, "min_range_spread_m", "must be >= 0 [m]");
@@ -253,6 +257,8 @@ void UahRun::startStraight(double now_s) {
   drive_.restartSamples();
   start_left_ = encoders().left(), start_right_ = encoders().right();
   heading_integral_ = 0;
+  run_duty_sum_[0] = run_duty_sum_[1] = 0;
+  run_duty_count_ = 0;
   // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
   // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
   // the heading transient small).
@@ -481,7 +487,13 @@ void UahRun::setStraightLength(double length_m) {
          " m the nominal right wheel counted (a run cut short, a slipping wheel or a wrong "
          "measurement)");
   }
-  straight_runs_.push_back({length_m, run_right_pulses_, run_max_dev_rad_, run_shortening_});
+  StraightRun run{length_m, run_right_pulses_, run_max_dev_rad_, run_shortening_};
+  if (run_duty_count_ > 0) {
+    run.mean_left_duty = run_duty_sum_[0] / run_duty_count_;
+    run.mean_right_duty = run_duty_sum_[1] / run_duty_count_;
+  }
+  run.forward = straight_dir_ > 0;
+  straight_runs_.push_back(run);
   ++attempts_;
   // The runs that count: within the heading bound and agreeing on the distance per pulse.
   MmPerPulseEstimate agreeing;
@@ -641,6 +653,11 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
                                      options_.heading_integral_duty_per_pulse_s * heading_integral_,
                                  0.0, options_.max_duty);
   duties_ = {straight_dir_ * left, straight_dir_ * drive_.duty(1)};
+  if (2 * dr >= target_pulses) {  // the second half: the ramp and the start's transient are over
+    run_duty_sum_[0] += left;
+    run_duty_sum_[1] += drive_.duty(1);
+    ++run_duty_count_;
+  }
   return duties_;
 }
 
@@ -720,8 +737,68 @@ StageResult writeUahStageFile(const StageOutput& output, const UahResult& result
   return r;
 }
 
+double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
+                       const wheels::KinematicsParams& params) {
+  double left = 0, right = 0;
+  int n = 0;
+  for (const int i : accepted) {
+    if (i < 0 || i >= static_cast<int>(runs.size())) continue;
+    const StraightRun& r = runs[static_cast<size_t>(i)];
+    if (!r.forward || !(r.mean_left_duty > 0) || !(r.mean_right_duty > 0)) continue;
+    left += r.mean_left_duty, right += r.mean_right_duty, ++n;
+  }
+  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  const double u_left = wheels::removeDeadband(left / n, params.deadband_left);
+  const double u_right = wheels::removeDeadband(right / n, params.deadband_right);
+  if (!(u_left > 0) || !(u_right > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return wheels::trimFromSpeedRatio(u_right / u_left, params.gain);
+}
+
+TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<StraightRun>& runs,
+                                    const std::vector<int>& accepted, double max_disagreement) {
+  TrimRefinement out;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return out;
+  wheels::KinematicsParams k = wheels::readKinematicsFile(path);
+  const double straight_trim = straightRunTrim(runs, accepted, k);
+  if (!std::isfinite(straight_trim)) return out;
+  out.compared = true;
+  out.file_trim = k.trim;
+  out.straight_trim = straight_trim;
+  if (max_disagreement < 0 || std::abs(straight_trim - k.trim) <= max_disagreement) return out;
+  k.trim = straight_trim;
+  k.validate();
+  // In a run the wheel stage wrote this file a moment ago and kept the one from before the run as
+  // `.prev`: that one stays (only the trim changes here, and the one replaced is in the result).
+  // Without a `.prev`, the file replaced becomes it.
+  AtomicWriteOptions write;
+  if (std::filesystem::exists(path + ".prev", ec)) write.backup_suffix.clear();
+  writeFileAtomically(path, wheels::kinematicsYaml(k, wheels::kinematicsTimeUtcNow()), write);
+  out.written = true;
+  return out;
+}
+
 StageResult UahRun::finish(const StageOutput& output) {
-  return writeUahStageFile(output, result_, turns_, elapsedS());
+  StageResult r = writeUahStageFile(output, result_, turns_, elapsedS());
+  if (options_.max_trim_disagreement < 0) return r;
+  const std::string path = wheels::kinematicsPath(output.calibration_root, output.veh);
+  const TrimRefinement t = refineKinematicsTrim(
+      path, straight_runs_, result_.straight.accepted_runs, options_.max_trim_disagreement);
+  if (!t.compared) return r;
+  r.figures.push_back({"straight_run_trim", t.straight_trim});
+  r.figures.push_back({"kinematics_trim", t.file_trim});
+  r.log += "; the straight runs' trim " + formatNumber(t.straight_trim, 5) +
+           ", the wheel stage's " + formatNumber(t.file_trim, 5) +
+           (t.written ? " (replaced in " + path + ")"
+                      : " (kept, within " + formatNumber(options_.max_trim_disagreement, 3) + ")");
+  if (t.written) {
+    r.text = "wrote " + r.file + "; the straight runs' trim " + formatNumber(t.straight_trim, 5) +
+             " replaced the wheel stage's " + formatNumber(t.file_trim, 5) + " in " + path +
+             " (they differ by more than max_trim_disagreement " +
+             formatNumber(options_.max_trim_disagreement, 3) +
+             ": floor tags laid turned bias the tags' trim)";
+  }
+  return r;
 }
 
 }  // namespace odometry

@@ -113,6 +113,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("face_tolerance_rad", r.face_tolerance_rad);
   p.get("max_face_turns", r.max_face_turns);
   p.get("min_clearance_m", r.min_clearance_m);
+  p.get("max_trim_disagreement", r.max_trim_disagreement);
   p.get("window_fraction", r.detection.window_fraction);
   p.get("min_peak_correlation", r.detection.min_peak_correlation);
   p.get("max_secondary_ratio", r.detection.max_secondary_ratio);

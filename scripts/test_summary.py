@@ -10,6 +10,25 @@ import sys
 import xml.etree.ElementTree as ET
 
 
+# A failure's message is printed whole up to this many characters: CI shows only this summary,
+# and the cause (a stage's FAILED reason) comes after gtest's "Expected equality" lines.
+MAX_MESSAGE_CHARS = 2000
+
+
+def message(bad):
+    """A <failure>'s or <error>'s text on one line: its message and its body, lines joined by |."""
+    lines = []
+    for part in (bad.get('message') or '', bad.text or ''):
+        for line in part.strip().splitlines():
+            line = line.strip()
+            if line and line not in lines:
+                lines.append(line)
+    text = ' | '.join(lines)
+    if len(text) > MAX_MESSAGE_CHARS:
+        text = text[:MAX_MESSAGE_CHARS] + ' ...'
+    return text
+
+
 def main():
     results_dir, log_path, status = sys.argv[1], sys.argv[2], int(sys.argv[3])
     passed, failed, failures = 0, 0, []
@@ -33,9 +52,7 @@ def main():
                 passed += 1
             else:
                 failed += 1
-                text = (bad.get('message') or bad.text or '').strip().splitlines()
-                failures.append('%s (%s): %s' % (name, os.path.basename(path),
-                                                 ' | '.join(text[:6])))
+                failures.append('%s (%s): %s' % (name, os.path.basename(path), message(bad)))
     for line in failures:
         print('FAILED ' + line)
     if status != 0:

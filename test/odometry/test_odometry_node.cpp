@@ -3,6 +3,7 @@
 // odometry/<veh>.yaml's Ed, wheelbase and distances per pulse against the config's wheel radii and
 // wheelbase. Tolerances are the .test file's parameters. See odometry_node.test.
 #include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <yaml-cpp/yaml.h>
 
@@ -43,9 +44,18 @@ TEST(OdometryNode, WritesTheTrueWheelsFromTheUahExperiments) {
             (m->phase.rfind("odometry/", 0) == 0 && m->state == CalibrationStatus::STATE_DONE))
           end = *m;
       });
+  // Where the robot truly was at the end: said with a failure (a stall, an obstacle).
+  nav_msgs::Odometry truth;
+  ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 100, [&](const nav_msgs::Odometry::ConstPtr& m) { truth = *m; });
   ASSERT_TRUE(spinUntil([&] { return end.has_value(); }, testParam<double>("wall_budget_s")))
       << "no DONE or FAILED from odometry_calibration_node";
-  ASSERT_EQ(end->state, CalibrationStatus::STATE_DONE) << end->phase << ": " << end->failure_reason;
+  const auto& q = truth.pose.pose.orientation;
+  ASSERT_EQ(end->state, CalibrationStatus::STATE_DONE)
+      << end->phase << ": " << end->failure_reason << "; the robot's true pose at the end: x "
+      << truth.pose.pose.position.x << " m, y " << truth.pose.pose.position.y << " m, yaw "
+      << 2 * std::atan2(q.z, q.w) * 180 / M_PI << " deg (sim time " << truth.header.stamp.toSec()
+      << " s)";
   std::cout << "odometry: " << end->text << std::endl;
   for (size_t i = 0; i < end->figure_names.size(); ++i)
     std::cout << "  " << end->figure_names[i] << " " << end->figure_values[i] << std::endl;

@@ -3,6 +3,7 @@
 // within 0.5 %, the trim within 0.005 of what the true wheels need, and UAH's Ed within 0.2 %, the
 // wheelbase and each wheel's distance per pulse within 0.5 %.
 #include <gtest/gtest.h>
+#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 
 #include <cmath>
@@ -43,10 +44,19 @@ TEST(CalibrateRun, EveryStageDoneAndTheFilesMatchTheTruth) {
   // An earlier test run's files (the nodes write their files only at their ends).
   ASSERT_TRUE(autocal::test::removeTree(root));
   ros::NodeHandle nh;
+  // Where the robot truly was when the run ended: said with a failure (a stage that stalled or
+  // met an obstacle).
+  nav_msgs::Odometry last_pose;
+  ros::Subscriber truth_sub = ros::NodeHandle(veh).subscribe<nav_msgs::Odometry>(
+      "sim/ground_truth", 100, [&](const nav_msgs::Odometry::ConstPtr& m) { last_pose = *m; });
   ASSERT_TRUE(spinUntil([&] { return fs::exists(summary_path); }, 580.0)) << summary_path;
   YamlMap summary = YamlMap::loadFile(summary_path.string());
+  const auto& q = last_pose.pose.pose.orientation;
   ASSERT_EQ(summary.required<std::string>("result"), "success")
-      << summary.required<std::string>("failure");
+      << summary.required<std::string>("failure") << "; the robot's true pose at the end: x "
+      << last_pose.pose.pose.position.x << " m, y " << last_pose.pose.pose.position.y
+      << " m, yaw " << 2 * std::atan2(q.z, q.w) * 180 / M_PI << " deg (sim time "
+      << last_pose.header.stamp.toSec() << " s)";
   EXPECT_TRUE(fs::exists(root / "report" / veh / "report.png"));
   YamlMap stages = summary.map("stages");
 

@@ -420,6 +420,45 @@ TEST(Report, ShowsTheGroundViewOfTheExtrinsicsWhenGiven) {
   fs::remove_all(dir);
 }
 
+TEST(Report, TheStagesFiguresStayInTheirColumnWhateverTheirNumberAndLength) {
+  const fs::path dir = fs::temp_directory_path() / "autocal_test_run_report_columns";
+  fs::remove_all(dir);
+  // Three stages done, each with long-named figures (as the odometry stage's are), and the same
+  // run with none: the plots below and the sheet's right edge are the same in both.
+  auto run = [](bool figures) {
+    RunRecorder r("bot", {"camera", "wheels", "odometry"});
+    for (int k = 0; k < 3; ++k) {
+      const std::string stage = k == 0 ? "camera" : k == 1 ? "wheels" : "odometry";
+      std::vector<std::pair<std::string, double>> figs;
+      if (figures) {
+        for (int i = 0; i < 12; ++i)
+          figs.push_back({"right_pulses_per_round_left_stopped_" + std::to_string(i), 427.7412});
+      }
+      r.addStatus(status(10.0 * k + 1, stage + "/run", kRunning, "running"));
+      r.addStatus(status(10.0 * k + 9, stage + "/write", kDone, "wrote " + stage + ".yaml", figs));
+    }
+    return r.record();
+  };
+  const cv::Mat with = cv::imread(
+      writeReport((dir / "a").string(), run(true), "", ReportOptions()).sheet_png);
+  const cv::Mat without = cv::imread(
+      writeReport((dir / "b").string(), run(false), "", ReportOptions()).sheet_png);
+  ASSERT_FALSE(with.empty());
+  ASSERT_FALSE(without.empty());
+  auto differing = [&](cv::Rect area) {
+    cv::Mat diff;
+    cv::absdiff(with(area), without(area), diff);
+    return cv::countNonZero(diff.reshape(1));
+  };
+  // The path and the trim plots, the panels above, and the last columns of the sheet.
+  EXPECT_EQ(differing(cv::Rect(0, 656, 1185, 384)), 0) << "figures drawn over the plots";
+  EXPECT_EQ(differing(cv::Rect(1030, 80, 570, 280)), 0) << "figures drawn over the panels";
+  EXPECT_EQ(differing(cv::Rect(1594, 0, 6, 1040)), 0) << "figures run off the sheet";
+  // And the figures are there.
+  EXPECT_GT(differing(cv::Rect(1030, 360, 570, 296)), 1000);
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
 TEST(CameraView, DrawsTheDetectionsOutlines) {
   cv::Mat image(120, 160, CV_8UC3, cv::Scalar(128, 128, 128));
   markers::TagDetection d;

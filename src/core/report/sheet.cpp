@@ -23,6 +23,42 @@ void text(cv::Mat& img, const std::string& s, cv::Point at, double scale = 0.5,
   cv::putText(img, s, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv::LINE_AA);
 }
 
+int textWidth(const std::string& s, double scale, int thickness = 1) {
+  int baseline = 0;
+  return cv::getTextSize(s, cv::FONT_HERSHEY_SIMPLEX, scale, thickness, &baseline).width;
+}
+
+/// `s` cut (with "...") to at most `max_width_px` at `scale`.
+std::string fitted(const std::string& s, double scale, int max_width_px) {
+  if (textWidth(s, scale) <= max_width_px) return s;
+  std::string cut = s;
+  while (!cut.empty() && textWidth(cut + "...", scale) > max_width_px) cut.pop_back();
+  return cut + "...";
+}
+
+/// A column of text lines in `box` (baselines from its top to its bottom): each line below the
+/// last, cut to the box's width; where the lines do not fit, a note says the rest is in the
+/// summary.
+struct Column {
+  static constexpr int kNoteStepPx = 14;
+  cv::Rect box;
+  int y = 0;  ///< baseline of the last line drawn
+  bool full = false;
+  /// Draws `s` `step_px` below the last line, `indent_px` in.
+  void line(cv::Mat& img, const std::string& s, int step_px, double scale, const cv::Scalar& colour,
+            int indent_px = 0, int thickness = 1) {
+    if (full) return;
+    if (y + step_px + kNoteStepPx > box.y + box.height) {
+      text(img, "(the rest in summary.yaml)", {box.x + indent_px, y + kNoteStepPx}, 0.35, kGrey);
+      full = true;
+      return;
+    }
+    y += step_px;
+    text(img, fitted(s, scale, box.width - indent_px), {box.x + indent_px, y}, scale, colour,
+         thickness);
+  }
+};
+
 // A plot frame: maps data (x right, y up) into `box` with equal or free scales.
 struct Plot {
   cv::Rect box;
@@ -255,35 +291,36 @@ cv::Mat drawReportSheet(const RunRecord& record, const ViewsAudit& audit,
   drawPath(sheet, cv::Rect(20, 680, 620, 330), believedPath(record, options), truePath(record));
   drawIterations(sheet, cv::Rect(670, 680, 500, 330), record.wheel_iterations);
 
-  // The stages' figures and the gates.
-  int y = 560;
-  text(sheet, "Stages", {1030, y}, 0.6, kBlack, 2);
+  // The stages' figures (right of the mosaic, between the panels above and the plots' titles
+  // below) and the gates (right of the plots).
+  Column stages{cv::Rect(1030, 380, 560, 275), 380};
+  stages.line(sheet, "Stages", 0, 0.6, kBlack, 0, 2);
   for (const StageRecord& s : record.stages) {
-    y += 24;
     const cv::Scalar c = s.state == StageState::kDone     ? kGreen
                          : s.state == StageState::kFailed ? kRed
                                                           : kGrey;
     std::string line = s.stage + ": " + s.stateText();
     if (s.end_s >= 0 && s.start_s >= 0) line += ", " + formatNumber(s.end_s - s.start_s, 3) + " s";
-    text(sheet, line, {1030, y}, 0.5, c);
-    // Its first eight figures, four to a line.
-    for (size_t i = 0; i < std::min<size_t>(8, s.figures.size()); i += 4) {
-      std::string figs;
-      for (size_t j = i; j < std::min(i + 4, s.figures.size()); ++j)
-        figs += s.figures[j].first + " " + formatNumber(s.figures[j].second, 5) + "   ";
-      y += 18;
-      text(sheet, figs, {1045, y}, 0.38);
+    stages.line(sheet, line, 24, 0.5, c);
+    // Its first eight figures, as many to a line as fit.
+    std::string figs;
+    for (size_t i = 0; i < std::min<size_t>(8, s.figures.size()); ++i) {
+      const std::string fig =
+          s.figures[i].first + " " + formatNumber(s.figures[i].second, 5) + "   ";
+      if (!figs.empty() && textWidth(figs + fig, 0.38) > stages.box.width - 15) {
+        stages.line(sheet, figs, 18, 0.38, kBlack, 15);
+        figs.clear();
+      }
+      figs += fig;
     }
+    if (!figs.empty()) stages.line(sheet, figs, 18, 0.38, kBlack, 15);
   }
-  y = std::max(y, 700) + 10;
-  text(sheet, "Gates", {1200, y}, 0.6, kBlack, 2);
+  Column gate_column{cv::Rect(1190, 690, 400, 335), 690};
+  gate_column.line(sheet, "Gates", 0, 0.6, kBlack, 0, 2);
   for (const Gate& g : gates) {
-    y += 22;
-    if (y > 1020) break;
-    text(sheet, std::string(g.passed ? "pass  " : "FAIL  ") + g.name, {1200, y}, 0.45,
-         g.passed ? kGreen : kRed);
-    y += 16;
-    text(sheet, g.detail.substr(0, 60), {1230, y}, 0.35, kGrey);
+    gate_column.line(sheet, std::string(g.passed ? "pass  " : "FAIL  ") + g.name, 22, 0.45,
+                     g.passed ? kGreen : kRed);
+    gate_column.line(sheet, g.detail, 16, 0.35, kGrey, 30);
   }
   return sheet;
 }

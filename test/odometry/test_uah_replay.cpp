@@ -98,7 +98,27 @@ TEST_P(UahReplayRobots, RecomputesTheLiveResultFromTheRecording) {
     EXPECT_EQ(replay.straight_runs[i].right_pulses, rec.live.straight_runs[i].right_pulses);
     EXPECT_NEAR(replay.straight_runs[i].max_heading_deviation_rad,
                 rec.live.straight_runs[i].max_heading_deviation_rad, 1e-12);
+    // The duties that held it straight, from the recorded commands: the live run's, as the trim
+    // the stage compares with the wheel stage's is made of them.
+    const odometry::StraightRun& l = rec.live.straight_runs[i];
+    const odometry::StraightRun& b = replay.straight_runs[i];
+    if (std::getenv("AUTOCAL_TRACE"))
+      std::printf("straight %zu duties: live %.6f/%.6f, replay %.6f/%.6f\n", i, l.mean_left_duty,
+                  l.mean_right_duty, b.mean_left_duty, b.mean_right_duty);
+    EXPECT_EQ(b.forward, l.forward);
+    EXPECT_GT(b.mean_left_duty, 0);
+    EXPECT_NEAR(b.mean_left_duty, l.mean_left_duty, 1e-4);
+    EXPECT_NEAR(b.mean_right_duty, l.mean_right_duty, 1e-4);
   }
+  const wheels::KinematicsParams k;
+  const double live_trim =
+      odometry::straightRunTrim(rec.live.straight_runs, live.straight.accepted_runs, k);
+  const double replay_trim =
+      odometry::straightRunTrim(replay.straight_runs, bag.straight.accepted_runs, k);
+  std::printf("straight runs' trim: live %.6f, replay %.6f\n", live_trim, replay_trim);
+  ASSERT_TRUE(std::isfinite(live_trim));
+  // The second halves are cut at a sample either side: runs gave 0.00001-0.00005 apart.
+  EXPECT_NEAR(replay_trim, live_trim, 2e-4);
   const auto rel = [](double a, double b) { return a / b - 1; };
   const double c = 2 * M_PI / robot.robot.encoder_resolution;
   std::printf(

@@ -15,6 +15,8 @@
 #include <memory>
 #include <random>
 
+#include "autocal/errors.h"
+#include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/uah_run.h"
 #include "autocal/sim/config.h"
 #include "autocal/sim/simulation.h"
@@ -185,6 +187,13 @@ Outcome runWithTransport(const sim::RobotConfig& robot) {
   return test::runUahInSim(simulation, optionsFor(robot, 0.0318, 0.1), rng, 900, hooks);
 }
 
+/// The default realistic robot's run (runWithTransport), run once for the tests that share it.
+const Outcome& realisticRun() {
+  static const Outcome run = runWithTransport(
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml"));
+  return run;
+}
+
 }  // namespace
 
 // The default robot as a real Duckiebot behaves (robot.yaml: static friction, backward gains that
@@ -192,7 +201,7 @@ Outcome runWithTransport(const sim::RobotConfig& robot) {
 TEST(UahRunInSim, RealisticRobot) {
   const sim::RobotConfig robot =
       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
-  expectAccurate(robot, runWithTransport(robot), "realistic");
+  expectAccurate(robot, realisticRun(), "realistic");
 }
 
 TEST(UahRunInSim, LeftWheel2PercentLargerWideWheelbase) {
@@ -401,6 +410,57 @@ TEST(StraightRunTrim, ReplacesOnlyTheKinematicsFilesTrimWhenTheyDisagree) {
   std::filesystem::remove_all(dir);
 }
 
+// The stage's end (finishUahStage, live and replayed): the kinematics file is read before the
+// odometry file is written, so that one it cannot read leaves no file of the stage; a trim that
+// disagrees is replaced and said.
+TEST(StraightRunTrim, TheStageReadsTheKinematicsFileBeforeItWritesItsOwn) {
+  const test::UahInSim& u = realisticRun();
+  ASSERT_TRUE(u.done) << u.failure;
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("autocal_uah_finish_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const StageOutput output{dir.string(), "robot"};
+  const std::string kinematics = wheels::kinematicsPath(output.calibration_root, output.veh);
+  const std::string odometry_file =
+      odometry::odometryCalibrationPath(output.calibration_root, output.veh);
+  std::filesystem::create_directories(std::filesystem::path(kinematics).parent_path());
+  const double bound = odometry::UahRunOptions().max_trim_disagreement;
+  auto finish = [&](double max_disagreement) {
+    return odometry::finishUahStage(output, u.result, u.turns, 100.0, u.straight_runs,
+                                    max_disagreement);
+  };
+
+  // A kinematics file that cannot be read: the stage fails and writes nothing.
+  {
+    std::ofstream f(kinematics);
+    f << "gain: [1.0\n";
+  }
+  EXPECT_THROW(finish(bound), Error);
+  EXPECT_FALSE(std::filesystem::exists(odometry_file));
+  // Told never to touch it, the stage does not read it either.
+  EXPECT_NO_THROW(finish(-1.0));
+  EXPECT_TRUE(std::filesystem::exists(odometry_file));
+  std::filesystem::remove(odometry_file);
+
+  // A wheel stage's trim 0.01 off the straight runs': replaced, and the DONE says so.
+  wheels::KinematicsParams p = motors();
+  const double straight =
+      odometry::straightRunTrim(u.straight_runs, u.result.straight.accepted_runs, p);
+  ASSERT_TRUE(std::isfinite(straight));
+  p.trim = straight + 0.01;
+  std::filesystem::remove(kinematics);
+  wheels::writeKinematicsFile(kinematics, p);
+  const StageResult r = finish(bound);
+  EXPECT_TRUE(std::filesystem::exists(odometry_file));
+  EXPECT_NEAR(wheels::readKinematicsFile(kinematics).trim, straight, 1e-6);
+  EXPECT_NE(r.text.find("replaced the wheel stage's"), std::string::npos) << r.text;
+  int trims = 0;
+  for (const auto& [name, value] : r.figures)
+    trims += name == "straight_run_trim" || name == "kinematics_trim";
+  EXPECT_EQ(trims, 2);
+  std::filesystem::remove_all(dir);
+}
+
 // Floor tags laid as a person lays them (3 mm, 0.03 rad; world.yaml's placement seeds 1 and 5):
 // the wheel stage's trim follows the tags' headings and the realistic robot drifts over the bound;
 // the trim of the UAH straight runs, held by the encoders and Ed with no tag, through the wheel
@@ -408,7 +468,7 @@ TEST(StraightRunTrim, ReplacesOnlyTheKinematicsFilesTrimWhenTheyDisagree) {
 TEST(StraightRunTrim, CorrectsTheTrimOfFloorTagsLaidTurned) {
   const sim::RobotConfig robot =
       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
-  const test::UahInSim u = runWithTransport(robot);
+  const test::UahInSim& u = realisticRun();
   ASSERT_TRUE(u.done) << u.failure;
 
   std::ifstream in(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/world.yaml");

@@ -83,7 +83,7 @@ struct UahRunOptions : EncoderDriveOptions {
   /// <veh>.yaml) gets the straight runs' trim (straightRunTrim) when its own differs from it by
   /// more than this (0: always). The wheel stage takes its trim from the floor tags' headings, and
   /// tags laid a degree or two turned bias it (2.6-13 cm of drift over 2 m in the simulator, its
-  /// trim 0.0008-0.0034 off); the straight runs hold the heading by the encoders and Ed, which no
+  /// trim 0.0005-0.0034 off); the straight runs hold the heading by the encoders and Ed, which no
   /// tag enters, but carry Ed's error (0.0000-0.0008 off: on tags laid exactly the wheel stage's is
   /// the better). Negative: the file is never touched.
   double max_trim_disagreement = 0.0015;
@@ -147,20 +147,41 @@ StageResult writeUahStageFile(const StageOutput& output, const UahResult& result
 double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
                        const wheels::KinematicsParams& params);
 
-/// What the odometry stage did to the kinematics file's trim.
+/// What the odometry stage does to the kinematics file's trim.
 struct TrimRefinement {
   bool compared = false;  ///< a kinematics file and an accepted forward run were there
-  bool written = false;   ///< the file got the straight runs' trim
+  bool replace = false;   ///< the file is to get the straight runs' trim
+  bool written = false;   ///< the file got it
   double file_trim = 0, straight_trim = 0;
+  wheels::KinematicsParams params;  ///< the file's, with the trim it is to have
 };
 
 /// Compares the trim of the kinematics file at `path`, if it exists, with the straight runs'
-/// (straightRunTrim with the file's gain and deadbands) and writes the latter into it, every other
-/// key kept, when they differ by more than `max_disagreement` (negative: never). Atomically; an
-/// existing `.prev` stays (in a run, the file from before the wheel stage), else the file replaced
-/// becomes it. Throws ConfigError or IoError for a file that cannot be read or written.
+/// (straightRunTrim with the file's gain and deadbands): `replace` when they differ by more than
+/// `max_disagreement` (negative: never). Reads only. Throws ConfigError or IoError for a file that
+/// cannot be read.
+TrimRefinement planTrimRefinement(const std::string& path, const std::vector<StraightRun>& runs,
+                                  const std::vector<int>& accepted, double max_disagreement);
+
+/// Writes a planned replacement (`plan.replace`) into the kinematics file at `path`, every other
+/// key kept, and sets `plan.written`. Atomically; an existing `.prev` stays (in a run, the file
+/// from before the wheel stage), else the file replaced becomes it. Throws IoError.
+void writeTrimRefinement(const std::string& path, TrimRefinement& plan);
+
+/// planTrimRefinement, then writeTrimRefinement.
 TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<StraightRun>& runs,
                                     const std::vector<int>& accepted, double max_disagreement);
+
+/// The odometry stage's end, live or replayed: the kinematics file the wheel stage wrote
+/// (<calibration_root>/kinematics/<veh>.yaml) is read first (one that cannot be read fails the
+/// stage before it writes anything; `max_trim_disagreement` negative: it is not read), then the
+/// stage's file is written (writeUahStageFile), then the kinematics file's trim is replaced where
+/// planTrimRefinement says so. The DONE figures add straight_run_trim and kinematics_trim where they
+/// were compared; the text says a replacement.
+StageResult finishUahStage(const StageOutput& output, const UahResult& result,
+                           const std::vector<UahTurn>& turns, double elapsed_s,
+                           const std::vector<StraightRun>& straight_runs,
+                           double max_trim_disagreement);
 
 class UahRun : public Stage {
  public:

@@ -754,51 +754,75 @@ double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<i
   return wheels::trimFromSpeedRatio(u_right / u_left, params.gain);
 }
 
-TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<StraightRun>& runs,
-                                    const std::vector<int>& accepted, double max_disagreement) {
+TrimRefinement planTrimRefinement(const std::string& path, const std::vector<StraightRun>& runs,
+                                  const std::vector<int>& accepted, double max_disagreement) {
   TrimRefinement out;
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return out;
-  wheels::KinematicsParams k = wheels::readKinematicsFile(path);
-  const double straight_trim = straightRunTrim(runs, accepted, k);
+  out.params = wheels::readKinematicsFile(path);
+  const double straight_trim = straightRunTrim(runs, accepted, out.params);
   if (!std::isfinite(straight_trim)) return out;
   out.compared = true;
-  out.file_trim = k.trim;
+  out.file_trim = out.params.trim;
   out.straight_trim = straight_trim;
-  if (max_disagreement < 0 || std::abs(straight_trim - k.trim) <= max_disagreement) return out;
-  k.trim = straight_trim;
-  k.validate();
-  // In a run the wheel stage wrote this file a moment ago and kept the one from before the run as
-  // `.prev`: that one stays (only the trim changes here, and the one replaced is in the result).
-  // Without a `.prev`, the file replaced becomes it.
-  AtomicWriteOptions write;
-  if (std::filesystem::exists(path + ".prev", ec)) write.backup_suffix.clear();
-  writeFileAtomically(path, wheels::kinematicsYaml(k, wheels::kinematicsTimeUtcNow()), write);
-  out.written = true;
+  out.replace = max_disagreement >= 0 && std::abs(straight_trim - out.file_trim) > max_disagreement;
+  if (out.replace) {
+    out.params.trim = straight_trim;
+    out.params.validate();
+  }
   return out;
 }
 
-StageResult UahRun::finish(const StageOutput& output) {
-  StageResult r = writeUahStageFile(output, result_, turns_, elapsedS());
-  if (options_.max_trim_disagreement < 0) return r;
+void writeTrimRefinement(const std::string& path, TrimRefinement& plan) {
+  if (!plan.replace) return;
+  // In a run the wheel stage wrote this file a moment ago and kept the one from before the run as
+  // `.prev`: that one stays (only the trim changes here, and the one replaced is in the result).
+  // Without a `.prev`, the file replaced becomes it.
+  std::error_code ec;
+  AtomicWriteOptions write;
+  if (std::filesystem::exists(path + ".prev", ec)) write.backup_suffix.clear();
+  writeFileAtomically(path, wheels::kinematicsYaml(plan.params, wheels::kinematicsTimeUtcNow()),
+                      write);
+  plan.written = true;
+}
+
+TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<StraightRun>& runs,
+                                    const std::vector<int>& accepted, double max_disagreement) {
+  TrimRefinement t = planTrimRefinement(path, runs, accepted, max_disagreement);
+  writeTrimRefinement(path, t);
+  return t;
+}
+
+StageResult finishUahStage(const StageOutput& output, const UahResult& result,
+                           const std::vector<UahTurn>& turns, double elapsed_s,
+                           const std::vector<StraightRun>& straight_runs,
+                           double max_trim_disagreement) {
   const std::string path = wheels::kinematicsPath(output.calibration_root, output.veh);
-  const TrimRefinement t = refineKinematicsTrim(
-      path, straight_runs_, result_.straight.accepted_runs, options_.max_trim_disagreement);
+  TrimRefinement t;
+  if (max_trim_disagreement >= 0)
+    t = planTrimRefinement(path, straight_runs, result.straight.accepted_runs,
+                           max_trim_disagreement);
+  StageResult r = writeUahStageFile(output, result, turns, elapsed_s);
   if (!t.compared) return r;
+  writeTrimRefinement(path, t);
   r.figures.push_back({"straight_run_trim", t.straight_trim});
   r.figures.push_back({"kinematics_trim", t.file_trim});
   r.log += "; the straight runs' trim " + formatNumber(t.straight_trim, 5) +
            ", the wheel stage's " + formatNumber(t.file_trim, 5) +
            (t.written ? " (replaced in " + path + ")"
-                      : " (kept, within " + formatNumber(options_.max_trim_disagreement, 3) + ")");
+                      : " (kept, within " + formatNumber(max_trim_disagreement, 3) + ")");
   if (t.written) {
     r.text = "wrote " + r.file + "; the straight runs' trim " + formatNumber(t.straight_trim, 5) +
              " replaced the wheel stage's " + formatNumber(t.file_trim, 5) + " in " + path +
              " (they differ by more than max_trim_disagreement " +
-             formatNumber(options_.max_trim_disagreement, 3) +
-             ": floor tags laid turned bias the tags' trim)";
+             formatNumber(max_trim_disagreement, 3) + ": floor tags laid turned bias the tags' trim)";
   }
   return r;
+}
+
+StageResult UahRun::finish(const StageOutput& output) {
+  return finishUahStage(output, result_, turns_, elapsedS(), straight_runs_,
+                        options_.max_trim_disagreement);
 }
 
 }  // namespace odometry

@@ -131,16 +131,9 @@ StageResult replayOdometry(const Args& a, const StageOutput& output) {
       odometry::DiffDriveParams::fromWheel(2 * 0.0318, bag.ticks_per_revolution, 0.1);
   options.straight_lengths_m = a.lengths_m;
   const odometry::UahReplayResult r = odometry::replayUah(bag.recording, options);
-  StageResult written = odometry::writeUahStageFile(output, r.result, r.turns, r.recording_s);
-  // As the live stage does: the straight runs' trim into the replayed wheel stage's file.
-  const odometry::TrimRefinement t = odometry::refineKinematicsTrim(
-      wheels::kinematicsPath(output.calibration_root, output.veh), r.straight_runs,
-      r.result.straight.accepted_runs, options.run.max_trim_disagreement);
-  if (t.compared) {
-    written.figures.push_back({"straight_run_trim", t.straight_trim});
-    written.figures.push_back({"kinematics_trim", t.file_trim});
-  }
-  return written;
+  // As the live stage ends: the straight runs' trim into the replayed wheel stage's file.
+  return odometry::finishUahStage(output, r.result, r.turns, r.recording_s, r.straight_runs,
+                                  options.run.max_trim_disagreement);
 }
 
 /// The replay's options: the nodes' defaults with what the live run was given.

@@ -84,7 +84,8 @@ struct UahRunOptions : EncoderDriveOptions {
   /// more than this (0: always). The wheel stage takes its trim from the floor tags' headings, and
   /// tags laid a degree or two turned bias it (2.6-13 cm of drift over 2 m in the simulator, its
   /// trim 0.0005-0.0034 off); the straight runs hold the heading by the encoders and Ed, which no
-  /// tag enters, but carry Ed's error (0.0000-0.0008 off: on tags laid exactly the wheel stage's is
+  /// tag enters, but carry an error of their own (0.0002-0.0004 off in the core harness, up to
+  /// 0.0012 over the robustness matrix's drawn robots: on tags laid exactly the wheel stage's is
   /// the better). Negative: the file is never touched.
   double max_trim_disagreement = 0.0015;
   /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
@@ -176,8 +177,8 @@ TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<S
 /// (<calibration_root>/kinematics/<veh>.yaml) is read first (one that cannot be read fails the
 /// stage before it writes anything; `max_trim_disagreement` negative: it is not read), then the
 /// stage's file is written (writeUahStageFile), then the kinematics file's trim is replaced where
-/// planTrimRefinement says so. The DONE figures add straight_run_trim and kinematics_trim where they
-/// were compared; the text says a replacement.
+/// planTrimRefinement says so. The DONE figures add straight_run_trim and kinematics_trim where
+/// they were compared; the text says a replacement.
 StageResult finishUahStage(const StageOutput& output, const UahResult& result,
                            const std::vector<UahTurn>& turns, double elapsed_s,
                            const std::vector<StraightRun>& straight_runs,

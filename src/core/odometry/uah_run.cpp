@@ -815,7 +815,8 @@ StageResult finishUahStage(const StageOutput& output, const UahResult& result,
     r.text = "wrote " + r.file + "; the straight runs' trim " + formatNumber(t.straight_trim, 5) +
              " replaced the wheel stage's " + formatNumber(t.file_trim, 5) + " in " + path +
              " (they differ by more than max_trim_disagreement " +
-             formatNumber(max_trim_disagreement, 3) + ": floor tags laid turned bias the tags' trim)";
+             formatNumber(max_trim_disagreement, 3) +
+             ": floor tags laid turned bias the tags' trim)";
   }
   return r;
 }

@@ -47,14 +47,28 @@ TEST(CameraNode, EndsAsTheTestFileExpects) {
 
   ros::NodeHandle nh(veh);
   std::vector<CalibrationStatus> statuses;
+  double turned_rad = 0, last_yaw = NAN;
+  bool sweeping = true;
   // Only the latest ground truth: without a camera subscriber the simulator runs hundreds of
   // times faster than real time and floods it.
   std::optional<nav_msgs::Odometry> truth;
   ros::Subscriber status_sub = nh.subscribe<CalibrationStatus>(
       "calibration/status", 1000,
-      [&](const CalibrationStatus::ConstPtr& m) { statuses.push_back(*m); });
+      [&](const CalibrationStatus::ConstPtr& m) {
+        statuses.push_back(*m);
+        if (m->phase == "camera/calibrate") sweeping = false;
+      });
+  // The angle the robot turned through (ground truth, summed over every message) until the stage
+  // asked for the fit: what the sweep cost, whatever the machine's speed.
   ros::Subscriber truth_sub = nh.subscribe<nav_msgs::Odometry>(
-      "sim/ground_truth", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) { truth = *m; });
+      "sim/ground_truth", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) {
+        truth = *m;
+        const auto& q = m->pose.pose.orientation;
+        const double yaw = std::atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z));
+        if (sweeping && !std::isnan(last_yaw))
+          turned_rad += std::abs(std::remainder(yaw - last_yaw, 2 * M_PI));
+        last_yaw = yaw;
+      });
   // Bad input beside the camera's frames: corrupt JPEGs and frames of another size, stamped now
   // so that the node wants them; it must drop and count them and calibrate on the good ones.
   const bool inject = testParam<bool>("inject_bad_frames");
@@ -148,16 +162,18 @@ TEST(CameraNode, EndsAsTheTestFileExpects) {
   EXPECT_NEAR(cy, t.cy, pp);
   EXPECT_NEAR(k1, t.distortion_coefficients[0], testParam<double>("k1_tolerance"));
 
-  // The sweep's length on sim time, from the statuses' stamps: from the first step (probe) to
-  // the end of the collection.
+  // The sweep's cost: the angle turned until the fit. Its length in sim time is printed only: at a
+  // real-time factor of 5 it grows with the machine's load (65-74 s here, 98 s on a CI machine),
+  // because the robot waits for each step's frames.
   double t_probe = NAN, t_swept = NAN;
   for (const auto& s : statuses) {
     if (std::isnan(t_probe) && s.phase == "camera/probe") t_probe = s.header.stamp.toSec();
     if (std::isnan(t_swept) && s.phase == "camera/calibrate") t_swept = s.header.stamp.toSec();
   }
   ASSERT_FALSE(std::isnan(t_probe) || std::isnan(t_swept)) << "no camera/probe or camera/calibrate";
-  std::cout << "sweep " << t_swept - t_probe << " s of sim time\n";
-  EXPECT_LE(t_swept - t_probe, testParam<double>("max_sweep_s"));
+  std::cout << "sweep " << t_swept - t_probe << " s of sim time, turned " << turned_rad
+            << " rad\n";
+  EXPECT_LE(turned_rad, testParam<double>("max_sweep_turn_rad"));
 }
 
 }  // namespace

@@ -97,6 +97,28 @@ TEST(TagHeading, NoTagsIsNoMeasurement) {
   EXPECT_FALSE(wheels::measureHeading({}, wheels::HeadingOptions()).valid);
 }
 
+TEST(TagHeading, LateralOffsetFromTheTagLineWhateverTheHeading) {
+  // Tags along the world's x axis (their up), the robot 0.1 m to the left of them (+y).
+  for (double h : {-0.4, 0.0, 0.2}) {
+    std::vector<wheels::TagSighting> s;
+    for (double along : {0.3, 0.45, 0.6}) {
+      const double dx = along, dy = -0.1;  // tag minus robot, world frame
+      wheels::TagSighting t;
+      t.x_m = std::cos(h) * dx + std::sin(h) * dy;
+      t.y_m = -std::sin(h) * dx + std::cos(h) * dy;
+      t.heading_rad = h;
+      t.distance_m = 0.4;
+      s.push_back(t);
+    }
+    s.push_back(s[0]);
+    s.back().heading_rad = h + 1.0;  // an outlier: not averaged
+    s.back().y_m += 1.0;
+    const wheels::HeadingMeasurement m = wheels::measureHeading(s, wheels::HeadingOptions());
+    EXPECT_NEAR(wheels::measureLateralM(s, m, wheels::HeadingOptions()), 0.1, 1e-9) << h;
+  }
+  EXPECT_TRUE(std::isnan(wheels::measureLateralM({}, wheels::HeadingMeasurement(), {})));
+}
+
 TEST(TagPose, FloorNormalPicksTheSolutionLyingOnTheFloor) {
   // A tag seen nearly frontally: both IPPE solutions fit; the floor normal decides.
   wheels::CameraMount m;

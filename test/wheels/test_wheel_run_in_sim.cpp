@@ -129,6 +129,10 @@ void expectCalibrated(const Outcome& o, const sim::WorldConfig& world, size_t ma
   for (const auto& t : world.floor_tags) last_x = std::min(last_x, t.pose.x_m - t.size_m / 2);
   EXPECT_LT(o.run.end_pose.x_m, last_x);
   EXPECT_LT(std::abs(std::remainder(o.run.end_pose.yaw_rad - M_PI, 2 * M_PI)), 0.15);
+  // On the tag line (the tags lie along y = their mean y), where the lane starts.
+  double line_y = 0;
+  for (const auto& t : world.floor_tags) line_y += t.pose.y_m / world.floor_tags.size();
+  EXPECT_LT(std::abs(o.run.end_pose.y_m - line_y), 0.05) << "the robot left beside the tag line";
 }
 
 }  // namespace
@@ -514,6 +518,21 @@ TEST(WheelRunInSim, NoDeadbandGuessRunAlone) {
   // the offsets: up to 12 drives.
   const sim::RobotConfig robot = variant(1.0, 1.08, 0.0325, 0.0318, 0.1);
   expectCalibrated(calibrateAndValidate(robot, defaultWorld(), 0.0), defaultWorld(), 12);
+}
+
+// A robot put down 0.15 m beside the tag line, turned 20 deg: the drives keep it beside the line
+// (0.23 m at their end), and the leave steers it onto the line. Left unsteered, it lost the tags
+// off to its side 0.5 m into the field and stopped there, 0.23 m beside the line. From beside the
+// line the tags are seen off to one side: 14 drives (6 from on the line).
+TEST(WheelRunInSim, LeavesOnTheTagLineFromBesideIt) {
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
+  sim::WorldConfig world = defaultWorld();
+  world.robot_start.y_m += 0.15;
+  world.robot_start.yaw_rad += 0.35;
+  const Outcome o = calibrateAndValidate(robot, world, robot.deadband + 0.007);
+  expectCalibrated(o, world, 16);
+  EXPECT_GT(std::abs(o.run.start_pose.y_m), 0.1);
+  EXPECT_LT(std::abs(std::remainder(o.run.end_pose.yaw_rad - M_PI, 2 * M_PI)), 0.06);
 }
 
 // robot.yaml: static friction above the running deadband, motors 2 % slower and 1 % faster

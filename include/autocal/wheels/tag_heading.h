@@ -78,6 +78,15 @@ struct HeadingMeasurement {
 HeadingMeasurement measureHeading(const std::vector<TagSighting>& sightings,
                                   const HeadingOptions& options);
 
+/// The robot's signed distance to the line through a tag along the tags' up direction [m], > 0
+/// when the robot is left of it, from the tag's centre in the robot frame and the heading.
+double lateralOffsetM(const TagSighting& sighting, double heading_rad);
+
+/// The mean lateral offset (lateralOffsetM) of the sightings that agree with the frame's heading
+/// `m` (within max_distance_m and outlier_rad of it) [m]; NaN when none does.
+double measureLateralM(const std::vector<TagSighting>& sightings, const HeadingMeasurement& m,
+                       const HeadingOptions& options);
+
 /// Wraps to (−π, π].
 double wrapAngle(double a_rad);
 

@@ -136,6 +136,17 @@ struct WheelRunOptions {
   int leave_clear_frames = 10;
   double exit_extra_m = 0.3;
   double max_leave_m = 3.0;
+  /// Leaving, beyond the paper: steered onto the tag line while tags are in view. The drives and
+  /// the mount's hops leave the robot beside the line (up to 0.2 m in robot mode), and a robot
+  /// that leaves from there ends the stage beside the free line the next stage starts on. The
+  /// target heading is −leave_lateral_gain_rad_per_m · the lateral offset, at most
+  /// leave_max_correction_rad, approached at leave_heading_gain_per_s; a frame older than
+  /// leave_steer_max_age_s (by its stamp) steers no more. Both gains 0: the paper's straight
+  /// leave.
+  double leave_lateral_gain_rad_per_m = 3.0;
+  double leave_max_correction_rad = 0.25;
+  double leave_heading_gain_per_s = 2.0;
+  double leave_steer_max_age_s = 0.5;
 
   /// The camera's mount from the floor tags (extrinsics::mountFromTags): after the trim converged
   /// and before leaving, turn on the spot this many times between stills (by extrinsics_spin_rad
@@ -286,6 +297,8 @@ class WheelRun : public Stage {
   /// forward drive (back_steer_s).
   void steerBack(double now_s);
   void startMotionClock(double length_s);
+  /// The leave's duties for now: straight, or steered onto the tag line by the last frame.
+  void steerLeave(double now_s);
   bool settled(double now_s) const;
   /// The duties of a drive back at the speed these forward duties drive (the motor fit's slopes
   /// per direction, once it has them; else the same).
@@ -380,6 +393,9 @@ class WheelRun : public Stage {
   double last_tag_seen_s_ = 0;
   bool leave_clear_ = false;
   int leave_clear_left_ = 0;
+  // The last frame's heading and lateral offset from the tag line while leaving, and its stamp.
+  double leave_heading_rad_ = 0, leave_lateral_m_ = 0;
+  double leave_sighted_s_ = -std::numeric_limits<double>::infinity();
 
   // extrinsics
   std::vector<extrinsics::TagSeen> still_tags_;  ///< of the measurement under way

@@ -20,13 +20,6 @@ double median(std::vector<double> v) {
 
 double clampAbs(double x, double limit) { return std::max(-limit, std::min(limit, x)); }
 
-/// The robot's signed distance to the line through a tag along the tags' up direction [m], > 0
-/// when the robot is left of it, from the tag's centre in the robot frame and the heading.
-double lateralFrom(const TagSighting& s, double heading_rad) {
-  // The tags' up direction in the robot frame is at −heading; the robot is at the origin.
-  return -std::cos(heading_rad) * s.y_m - std::sin(heading_rad) * s.x_m;
-}
-
 }  // namespace
 
 void LaneRefinerOptions::validate() const {
@@ -155,17 +148,10 @@ void LaneRefiner::addSightings(double stamp_s, const std::vector<TagSighting>& s
   const HeadingMeasurement m = measureHeading(ours, options_.heading);
   if (!m.valid) return;
   // The lateral offset from every tag in range that agrees with the frame's heading.
-  double lateral_sum = 0;
-  int lateral_n = 0;
-  for (const auto& s : ours) {
-    if (s.distance_m > options_.heading.max_distance_m) continue;
-    if (std::abs(wrapAngle(s.heading_rad - m.heading_rad)) > options_.heading.outlier_rad) continue;
-    lateral_sum += lateralFrom(s, m.heading_rad);
-    ++lateral_n;
-  }
-  if (lateral_n == 0) return;
+  const double lateral_m = measureLateralM(ours, m, options_.heading);
+  if (std::isnan(lateral_m)) return;
   last_heading_rad_ = m.heading_rad;
-  last_lateral_m_ = lateral_sum / lateral_n;
+  last_lateral_m_ = lateral_m;
   last_heading_stamp_s_ = stamp_s;
 
   if (phase_ == LanePhase::kIdle) {

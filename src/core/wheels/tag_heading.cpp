@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "autocal/errors.h"
 
@@ -71,6 +72,25 @@ void HeadingOptions::validate() const {
   if (!(prefer_distance_m > 0 && prefer_distance_m <= max_distance_m)) {
     throw ConfigError("prefer_tag_distance_m: must be within (0, max_tag_distance_m] [m]");
   }
+}
+
+double lateralOffsetM(const TagSighting& sighting, double heading_rad) {
+  // The tags' up direction in the robot frame is at −heading; the robot is at the origin.
+  return -std::cos(heading_rad) * sighting.y_m - std::sin(heading_rad) * sighting.x_m;
+}
+
+double measureLateralM(const std::vector<TagSighting>& sightings, const HeadingMeasurement& m,
+                       const HeadingOptions& options) {
+  if (!m.valid) return std::numeric_limits<double>::quiet_NaN();
+  double sum = 0;
+  int n = 0;
+  for (const auto& s : sightings) {
+    if (s.distance_m > options.max_distance_m) continue;
+    if (std::abs(wrapAngle(s.heading_rad - m.heading_rad)) > options.outlier_rad) continue;
+    sum += lateralOffsetM(s, m.heading_rad);
+    ++n;
+  }
+  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
 }
 
 HeadingMeasurement measureHeading(const std::vector<TagSighting>& sightings,

@@ -120,6 +120,11 @@ void WheelRunOptions::validate() const {
   if (leave_clear_frames < 1) throw ConfigError("leave_clear_frames: must be >= 1");
   if (!(exit_extra_m >= 0)) throw ConfigError("exit_extra_m: must be >= 0 [m]");
   if (!(max_leave_m > exit_extra_m)) throw ConfigError("max_leave_m: must exceed exit_extra_m [m]");
+  if (!(leave_lateral_gain_rad_per_m >= 0 && leave_heading_gain_per_s >= 0))
+    throw ConfigError("leave_lateral_gain_rad_per_m/leave_heading_gain_per_s: must be >= 0");
+  if (!(leave_max_correction_rad >= 0 && leave_max_correction_rad < M_PI / 2))
+    throw ConfigError("leave_max_correction_rad: must be within [0, pi/2) [rad]");
+  if (!(leave_steer_max_age_s > 0)) throw ConfigError("leave_steer_max_age_s: must be > 0 [s]");
   if (!(camera_timeout_s > 0 && encoder_timeout_s > 0 && max_duration_s > 0))
     throw ConfigError("camera_timeout_s/encoder_timeout_s/max_duration_s: must be > 0 [s]");
 }
@@ -510,6 +515,13 @@ void WheelRun::addFrame(double stamp_s, const cv::Mat& image) {
     if (!last_detections_.empty()) {
       last_tag_seen_s_ = std::max(stamp_s, last_now_s_);
       frames_without_tags_ = 0;
+      const HeadingMeasurement m = measureHeading(frame, options_.heading);
+      const double lateral_m = measureLateralM(frame, m, options_.heading);
+      if (!std::isnan(lateral_m) && stamp_s > leave_sighted_s_) {
+        leave_heading_rad_ = m.heading_rad;
+        leave_lateral_m_ = lateral_m;
+        leave_sighted_s_ = stamp_s;
+      }
     } else {
       ++frames_without_tags_;
     }
@@ -719,6 +731,28 @@ void WheelRun::startLeave(double now_s) {
   leave_clear_ = false;
 }
 
+void WheelRun::steerLeave(double now_s) {
+  const WheelDuties& straight = drive_.duties;
+  if (now_s - leave_sighted_s_ > options_.leave_steer_max_age_s ||
+      (options_.leave_lateral_gain_rad_per_m == 0 && options_.leave_heading_gain_per_s == 0)) {
+    duties_ = straight;
+    return;
+  }
+  // Heading towards the line, then along it: a turn rate (counter-clockwise) from the heading's
+  // error, with each wheel kept turning forward.
+  const KinematicsParams& p = drive_params_;
+  const double limit = options_.leave_max_correction_rad;
+  const double target_rad =
+      std::clamp(-options_.leave_lateral_gain_rad_per_m * leave_lateral_m_, -limit, limit);
+  const double v = options_.leave_speed_mps;
+  const double max_rate = v / p.baseline;  // the slower wheel at half the speed
+  const double rate = std::clamp(
+      options_.leave_heading_gain_per_s * wrapAngle(target_rad - leave_heading_rad_), -max_rate,
+      max_rate);
+  duties_ = speedsToDuties(
+      p, {(v - rate * p.baseline / 2) / p.radius, (v + rate * p.baseline / 2) / p.radius});
+}
+
 void WheelRun::onSettled(double now_s) {
   if (stage_ == WheelRunStage::kLeave) {
     stage_ = WheelRunStage::kDone;
@@ -862,6 +896,8 @@ WheelDuties WheelRun::update(double now_s) {
         } else if (!leave_clear_ && driven > options_.max_leave_m) {
           fail("still seeing tags after driving " + formatNumber(driven, 3) +
                " m out of the tag field (max_leave_m)");
+        } else {
+          steerLeave(now_s);
         }
       } else if (now_s >= motion_end_s_) {
         stopMotion(now_s);

@@ -72,6 +72,9 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("leave_clear_s", r.leave_clear_s);
   p.get("exit_extra_m", r.exit_extra_m);
   p.get("max_leave_m", r.max_leave_m);
+  p.get("leave_lateral_gain_rad_per_m", r.leave_lateral_gain_rad_per_m);
+  p.get("leave_max_correction_rad", r.leave_max_correction_rad);
+  p.get("leave_heading_gain_per_s", r.leave_heading_gain_per_s);
   p.get("camera_timeout_s", r.camera_timeout_s);
   p.get("encoder_timeout_s", r.encoder_timeout_s);
   p.get("max_duration_s", r.max_duration_s);

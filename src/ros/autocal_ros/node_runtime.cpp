@@ -189,6 +189,8 @@ int runNode(int argc, char** argv, const NodeRunOptions& options,
     if (options.interrupt_is_failure)
       ROS_INFO_STREAM(options.name << ": stopped before its stage started");
     stopWheels();
+  } else {
+    ros::WallDuration(options.done_linger_s).sleep();
   }
   ros::shutdown();
   return toInt(ExitCode::kOk);

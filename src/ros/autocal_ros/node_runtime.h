@@ -154,6 +154,10 @@ struct NodeRunOptions {
   /// that are still connecting (a node started with it in the same launch); the node's private
   /// parameter ~failure_linger_s overrides it.
   double failure_linger_s = 1.0;
+  /// How long [wall s] a node that ended normally stays up before it exits: a status published just
+  /// before (the stage's DONE) is still in the publisher's queue, and shutting down at once
+  /// closes the connections under it, so that a watcher sees the node gone with no DONE.
+  double done_linger_s = 0.5;
   /// Exit 130 with FAILED "interrupted" once the stage has started (published a phase other than
   /// "<stage>/wait"); before that, and when false, an interrupt ends the node quietly with 0.
   bool interrupt_is_failure = true;

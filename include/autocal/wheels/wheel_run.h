@@ -388,6 +388,10 @@ class WheelRun : public Stage {
   int iteration_ = 0;
   int fit_cycles_ = 0;  ///< drives forward and back for the motor fit after the trim converged
   int drives_without_tags_ = 0;
+  /// Turning steps were made since the last drive forward; the drive under way follows them.
+  bool pulsed_since_drive_ = false;
+  bool settling_drive_ = false;
+  int settled_iteration_ = -1;  ///< the iteration_ the last settling drive was made at
   double last_delta_theta_rad_ = 0;
   double leave_start_left_ = 0;
   double last_tag_seen_s_ = 0;

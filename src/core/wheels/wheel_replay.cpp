@@ -268,8 +268,11 @@ WheelReplayResult WheelReplay::result() const {
   if (options_.compensate_deadband && first_forward != all.end())
     commanded = withFirstDriveOffsets(commanded, first_forward->drive.duties, options_);
   bool last_forward_counted = false;
+  bool turned_since_forward = false;
+  int settled_iteration = -1;
   for (size_t i = 0; i < n; ++i) {
     const Segment& s = all[i];
+    if (s.kind == Kind::kTurn) turned_since_forward = true;
     if (s.kind == Kind::kStill) {
       ++out.stills;
       if (stillHeading(s).valid) ++out.measured;
@@ -289,6 +292,12 @@ WheelReplayResult WheelReplay::result() const {
     // it; the drive out of the tag field (§5.1) is not.
     last_forward_counted =
         i + 2 < n && all[i + 1].kind == Kind::kStill && all[i + 2].kind == Kind::kBack;
+    // As WheelRun: the first drive after a re-alignment's steps only takes up the backlash (once
+    // per update).
+    const bool settling = turned_since_forward && estimator.iterations() > 0 &&
+                          settled_iteration != estimator.iterations();
+    if (settling) settled_iteration = estimator.iterations();
+    turned_since_forward = false;
     if (!last_forward_counted) continue;
     ++out.drives;
     if (!estimator.converged()) {
@@ -305,7 +314,7 @@ WheelReplayResult WheelReplay::result() const {
       addDriveToFit(s.drive, ticks_per_rev_, commanded, options_.drive_speed_mps, fitter,
                     estimator);
     }
-    if (estimator.converged()) continue;
+    if (estimator.converged() || settling) continue;
     const bool still_before = i > 0 && all[i - 1].kind == Kind::kStill;
     const HeadingMeasurement before =
         still_before ? stillHeading(all[i - 1]) : HeadingMeasurement();

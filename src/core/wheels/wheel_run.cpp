@@ -309,6 +309,7 @@ void WheelRun::startPulse(double turn_rad) {
   const double duty = std::min(0.9, offset + options_.turn_duty_margin + turn_duty_boost_);
   duties_ = {0.0, pulse_dir_ * duty};
   motion_ = Motion::kPulse;
+  pulsed_since_drive_ = true;
   since_still_ = SinceStill::kNone;  // a pivot on the left wheel, not about the axle
   pulse_start_right_ = encoders_.rawRight();
   const double wheel_rad = turn_rad * options_.kinematics.baseline / options_.kinematics.radius;
@@ -327,6 +328,16 @@ void WheelRun::startPulse(double turn_rad) {
 }
 
 void WheelRun::startDrive(double now_s, int sign, double speed_mps) {
+  if (sign > 0) {
+    // A re-alignment's steps turned the right wheel alone: the wheels start the next drive with
+    // their gearboxes' backlash taken up on opposite sides, and the robot turns by degrees as it
+    // starts (3.8 deg on a robot-mode run, for 0.5 over the rest of a 0.9 m drive). Such a drive
+    // takes up the backlash and updates nothing (once per update: a settling drive that turned
+    // beyond realign_above_rad is followed by another re-alignment).
+    settling_drive_ = pulsed_since_drive_ && iteration_ > 0 && settled_iteration_ != iteration_;
+    if (settling_drive_) settled_iteration_ = iteration_;
+    pulsed_since_drive_ = false;
+  }
   since_still_ = sign > 0 ? SinceStill::kForward : SinceStill::kBackward;
   const KinematicsParams p = drive_params_ = driveParams();
   const double w = speed_mps / p.radius;
@@ -632,8 +643,9 @@ void WheelRun::onMeasured(double now_s) {
           fail("the floor tags were lost after " + std::to_string(drives_without_tags_) +
                " drives in a row: the tag field is too short for drive_s, or the robot leaves it");
         }
-      } else if (estimator_.converged()) {
-        // A drive for the motor fit alone (motorFitPending): the trim is final.
+      } else if (estimator_.converged() || settling_drive_) {
+        // A drive for the motor fit alone (motorFitPending): the trim is final; or one that took
+        // up the backlash after a re-alignment.
         drives_without_tags_ = 0;
         last_delta_theta_rad_ = wrapAngle(m.heading_rad - heading_before_drive_);
       } else {

@@ -31,7 +31,11 @@ ProjectionDifference projectionDifference(const CameraIntrinsics& truth,
       }
       ++out.pixels;
       sum += d * d;
-      out.worst_px = std::max(out.worst_px, d);
+      if (d > out.worst_px) {
+        out.worst_px = d;
+        out.worst_u_px = u;
+        out.worst_v_px = v;
+      }
       if (std::hypot(u - mid_u, v - mid_v) <= centre_radius_px) centre += d * d, ++n_centre;
       if (v < mid_v) {
         upper += d * d, ++n_upper;

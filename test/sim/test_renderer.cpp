@@ -157,6 +157,9 @@ TEST(ProjectionDifference, KnownModelErrors) {
   const sim::ProjectionDifference corners = sim::projectionDifference(lens, k3);
   EXPECT_LT(corners.centre_rms_px, 0.05);
   EXPECT_GT(corners.worst_px, 1.0);
+  // ... and worst in a corner of the grid.
+  EXPECT_TRUE(corners.worst_u_px == 4 || corners.worst_u_px == 636) << corners.worst_u_px;
+  EXPECT_TRUE(corners.worst_v_px == 4 || corners.worst_v_px == 476) << corners.worst_v_px;
   EXPECT_THROW(sim::projectionDifference(lens, lens, 0), autocal::ConfigError);
 }
 

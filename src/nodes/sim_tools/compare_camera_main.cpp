@@ -69,9 +69,11 @@ int run(int argc, char** argv) {
       autocal::sim::projectionDifference(t, autocal::loadCameraInfoYaml(calibration_path));
   std::printf(
       "projection difference over the whole image (%d pixels, every 8 px): RMS %.3f px, worst "
-      "%.3f px; upper half %.3f px, lower half %.3f px, within 100 px of the centre %.3f px%s\n",
+      "%.3f px; upper half %.3f px, lower half %.3f px, within 100 px of the centre %.3f px%s; "
+      "worst at (%.0f, %.0f)\n",
       d.pixels, d.rms_px, d.worst_px, d.upper_rms_px, d.lower_rms_px, d.centre_rms_px,
-      d.unmapped > 0 ? (", " + std::to_string(d.unmapped) + " pixels unmapped").c_str() : "");
+      d.unmapped > 0 ? (", " + std::to_string(d.unmapped) + " pixels unmapped").c_str() : "",
+      d.worst_u_px, d.worst_v_px);
   return 0;
 }
 

@@ -15,6 +15,7 @@ struct ProjectionDifference {
   int unmapped = 0;   ///< grid pixels the calibrated model cannot project (behind it, or no ray)
   double rms_px = 0;  ///< over every compared pixel
   double worst_px = 0;
+  double worst_u_px = 0, worst_v_px = 0;  ///< the grid pixel where worst_px is
   double centre_rms_px = 0;  ///< within centre_radius_px of the image centre
   double upper_rms_px = 0;   ///< the upper half of the image (rows above the middle)
   double lower_rms_px = 0;   ///< the lower half: where a lane follower looks at the floor

@@ -366,6 +366,72 @@ TEST(StraightRunTrim, TheTrimThatCommandsTheForwardRunsDutiesThroughTheDeadbands
   EXPECT_TRUE(std::isnan(odometry::straightRunTrim(runs, {}, p)));
 }
 
+// Two speeds: the duties that the true trim and deadbands command at 4 and 10 rad/s, given a file
+// whose trim is off and whose deadbands are off in opposite ways (their mean right): the fit finds
+// the true ones. One speed through the file's wrong deadbands gives a trim off by more, right
+// only at that speed.
+TEST(StraightRunFit, TwoSpeedsGiveTheDeadbandsBesideTheTrim) {
+  wheels::KinematicsParams truth = motors();
+  truth.trim = 0.012;
+  const WheelDuties slow = wheels::speedsToDuties(truth, {4.0, 4.0});
+  const WheelDuties fast = wheels::speedsToDuties(truth, {10.0, 10.0});
+  std::vector<odometry::StraightRun> runs(2);
+  runs[0].mean_left_duty = slow.left, runs[0].mean_right_duty = slow.right;
+  runs[0].fast_left_duty = fast.left, runs[0].fast_right_duty = fast.right;
+  runs[1].forward = false, runs[1].mean_left_duty = 0.3, runs[1].mean_right_duty = 0.2;
+  wheels::KinematicsParams file = truth;
+  file.trim = 0.02;
+  file.deadband_left += 0.004, file.deadband_right -= 0.004;
+  const odometry::StraightRunFit fit = odometry::straightRunFit(runs, {0, 1}, file);
+  ASSERT_TRUE(fit.two_speeds);
+  EXPECT_NEAR(fit.trim, truth.trim, 1e-9);
+  EXPECT_NEAR(fit.deadband_left, truth.deadband_left, 1e-9);
+  EXPECT_NEAR(fit.deadband_right, truth.deadband_right, 1e-9);
+  EXPECT_GT(std::abs(odometry::straightRunTrim(runs, {0}, file) - truth.trim), 0.005);
+
+  // A run without its fast part, or one whose fast part makes no line through two deadbands (a
+  // right wheel that went slower as it went faster): one speed.
+  std::vector<odometry::StraightRun> one = runs;
+  one[0].fast_left_duty = one[0].fast_right_duty = 0;
+  odometry::StraightRunFit f = odometry::straightRunFit(one, {0}, file);
+  EXPECT_FALSE(f.two_speeds);
+  EXPECT_DOUBLE_EQ(f.trim, odometry::straightRunTrim(one, {0}, file));
+  EXPECT_EQ(f.deadband_left, file.deadband_left);
+  std::vector<odometry::StraightRun> bent = runs;
+  bent[0].fast_right_duty = bent[0].mean_right_duty - 0.01;
+  EXPECT_FALSE(odometry::straightRunFit(bent, {0}, file).two_speeds);
+  EXPECT_TRUE(std::isnan(odometry::straightRunFit(runs, {1}, file).trim));  // back only
+}
+
+// The stage replaces the deadbands with the trim where the runs went at two speeds.
+TEST(StraightRunFit, TheFileGetsTheDeadbandsWithTheTrim) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("autocal_straight_fit_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const std::string path = wheels::kinematicsPath(dir.string(), "robot");
+  wheels::KinematicsParams truth = motors();
+  truth.trim = 0.012;
+  std::vector<odometry::StraightRun> runs(1);
+  const WheelDuties slow = wheels::speedsToDuties(truth, {4.0, 4.0});
+  const WheelDuties fast = wheels::speedsToDuties(truth, {10.0, 10.0});
+  runs[0].mean_left_duty = slow.left, runs[0].mean_right_duty = slow.right;
+  runs[0].fast_left_duty = fast.left, runs[0].fast_right_duty = fast.right;
+  wheels::KinematicsParams file = truth;
+  file.trim = 0.02;
+  file.deadband_left += 0.004, file.deadband_right -= 0.004;
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  wheels::writeKinematicsFile(path, file);
+  const odometry::TrimRefinement r = odometry::refineKinematicsTrim(path, runs, {0}, 0);
+  EXPECT_TRUE(r.written);
+  EXPECT_TRUE(r.deadbands);
+  const wheels::KinematicsParams after = wheels::readKinematicsFile(path);
+  EXPECT_NEAR(after.trim, truth.trim, 1e-6);
+  EXPECT_NEAR(after.deadband_left, truth.deadband_left, 1e-6);
+  EXPECT_NEAR(after.deadband_right, truth.deadband_right, 1e-6);
+  EXPECT_EQ(after.gain, file.gain);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(StraightRunTrim, ReplacesOnlyTheKinematicsFilesTrimWhenTheyDisagree) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
                                     ("autocal_straight_trim_" + std::to_string(::getpid()));
@@ -445,7 +511,7 @@ TEST(StraightRunTrim, TheStageReadsTheKinematicsFileBeforeItWritesItsOwn) {
   // A wheel stage's trim 0.01 off the straight runs': replaced, and the DONE says so.
   wheels::KinematicsParams p = motors();
   const double straight =
-      odometry::straightRunTrim(u.straight_runs, u.result.straight.accepted_runs, p);
+      odometry::straightRunFit(u.straight_runs, u.result.straight.accepted_runs, p).trim;
   ASSERT_TRUE(std::isfinite(straight));
   p.trim = straight + 0.01;
   std::filesystem::remove(kinematics);
@@ -463,8 +529,8 @@ TEST(StraightRunTrim, TheStageReadsTheKinematicsFileBeforeItWritesItsOwn) {
 
 // Floor tags laid as a person lays them (3 mm, 0.03 rad; world.yaml's placement seeds 1 and 5):
 // the wheel stage's trim follows the tags' headings and the realistic robot drifts over the bound;
-// the trim of the UAH straight runs, held by the encoders and Ed with no tag, through the wheel
-// stage's gain and deadbands, drives it straight (the truth's drift at 0.15, 0.25 and 0.4 m/s).
+// the trim and deadbands of the UAH straight runs, held by the encoders and Ed with no tag at two
+// speeds, drive it straight (the truth's drift at 0.15, 0.25 and 0.4 m/s).
 TEST(StraightRunTrim, CorrectsTheTrimOfFloorTagsLaidTurned) {
   const sim::RobotConfig robot =
       sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
@@ -492,10 +558,12 @@ TEST(StraightRunTrim, CorrectsTheTrimOfFloorTagsLaidTurned) {
     double wheel_worst_m = 0;
     for (const test::StraightDrift& d : test::straightDrifts(robot, w.result))
       wheel_worst_m = std::max(wheel_worst_m, d.drift_m);
+    const odometry::StraightRunFit fit =
+        odometry::straightRunFit(u.straight_runs, u.result.straight.accepted_runs, w.result);
+    ASSERT_TRUE(fit.two_speeds);
     wheels::KinematicsParams refined = w.result;
-    refined.trim =
-        odometry::straightRunTrim(u.straight_runs, u.result.straight.accepted_runs, w.result);
-    ASSERT_TRUE(std::isfinite(refined.trim));
+    refined.trim = fit.trim;
+    refined.deadband_left = fit.deadband_left, refined.deadband_right = fit.deadband_right;
     std::printf("placement seed %d: trim of the wheel stage %.5f (worst drift %.1f cm), of the "
                 "straight runs %.5f\n",
                 seed, w.result.trim, 100 * wheel_worst_m, refined.trim);
@@ -508,5 +576,39 @@ TEST(StraightRunTrim, CorrectsTheTrimOfFloorTagsLaidTurned) {
                   100 * d.bound_m);
       EXPECT_LE(d.drift_m, d.bound_m) << d.speed_mps << " m/s";
     }
+  }
+}
+
+// The wheel stage's deadbands a few 0.0001 off in opposite ways (as its short drives leave them on
+// the drawn robots) turn the robot at low speed as a trim 0.001 off does. The realistic robot's
+// straight runs at one speed fix the trim through them, right at that speed and over 3 cm off at
+// another; at two speeds they fix both, and every speed drives within its bound.
+TEST(StraightRunFit, DeadbandsOffInOppositeWaysAreFixedWithTheTrim) {
+  const sim::RobotConfig robot =
+      sim::loadRobotConfig(std::string(AUTOCAL_SOURCE_DIR) + "/sim/config/robot.yaml");
+  const test::UahInSim& u = realisticRun();
+  ASSERT_TRUE(u.done) << u.failure;
+  wheels::KinematicsParams file;
+  file.trim = 0.0;
+  file.deadband_left = robot.deadband + 0.0008;
+  file.deadband_right = robot.deadband - 0.0008;
+  const std::vector<int>& accepted = u.result.straight.accepted_runs;
+  wheels::KinematicsParams one = file;
+  one.trim = odometry::straightRunTrim(u.straight_runs, accepted, file);
+  const odometry::StraightRunFit fit = odometry::straightRunFit(u.straight_runs, accepted, file);
+  ASSERT_TRUE(fit.two_speeds);
+  wheels::KinematicsParams two = file;
+  two.trim = fit.trim, two.deadband_left = fit.deadband_left;
+  two.deadband_right = fit.deadband_right;
+  std::printf("deadbands fitted %.5f / %.5f (truth %.5f)\n", fit.deadband_left,
+              fit.deadband_right, robot.deadband);
+  double one_worst_m = 0;
+  for (const test::StraightDrift& d : test::straightDrifts(robot, one))
+    one_worst_m = std::max(one_worst_m, d.drift_m);
+  EXPECT_GT(one_worst_m, 0.03);
+  for (const test::StraightDrift& d : test::straightDrifts(robot, two)) {
+    std::printf("  %.2f m/s: %.1f cm (one speed: %.1f worst; bound %.1f)\n", d.speed_mps,
+                100 * d.drift_m, 100 * one_worst_m, 100 * d.bound_m);
+    EXPECT_LE(d.drift_m, d.bound_m) << d.speed_mps << " m/s";
   }
 }

@@ -19,12 +19,15 @@
 //                        true start-to-end length (setStraightLength: measured by a person, or in
 //                        the simulator by a ground-truth helper); runs whose heading strayed
 //                        beyond the threshold are rejected and repeated, up to a bound (§2.3).
+//                        A forward run goes faster over its second half: the duties that held it
+//                        straight at the two speeds give the trim and deadbands (straightRunFit).
 // The result is computeUah's. The caller feeds time, encoder readings and range readings and
 // commands the duties update() returns; a motion's clock starts at the first update() that returns
 // its duties. Failures throw CalibrationError (and the run stays failed with zero duties).
 #pragma once
 
 #include <array>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -54,6 +57,12 @@ struct UahRunOptions : EncoderDriveOptions {
   double spin_rate_pulses_per_s = 30.0;
   /// The right wheel's pulse rate on the straight runs [pulses/s].
   double straight_rate_pulses_per_s = 90.0;
+  /// The forward runs' second half goes at this rate [pulses/s] (0: one rate throughout), so that
+  /// each forward run holds the robot straight at two speeds: the duties of the two give each
+  /// wheel's deadband besides the trim (straightRunFit). 240 (0.36 m/s on a Duckiebot): over 20
+  /// drawn robots and 3 seeds of the core harness, 180 and 270 left more of them over 3 cm of
+  /// drift (the two speeds' duties closer, or the fast one's noisier).
+  double straight_fast_rate_pulses_per_s = 240.0;
   /// The straight run's rate rises from the spin's to its own over this time [s].
   double straight_ramp_s = 1.5;
   /// Straight runs: the distance to drive, by the nominal right wheel [m] (the free line needed);
@@ -80,14 +89,14 @@ struct UahRunOptions : EncoderDriveOptions {
   /// Forward straight runs stop and fail when a valid range reading is this close [m].
   double min_clearance_m = 0.12;
   /// The kinematics file the wheel stage wrote before this stage (<calibration_root>/kinematics/
-  /// <veh>.yaml) gets the straight runs' trim (straightRunTrim) when its own differs from it by
-  /// more than this (0: always). The wheel stage takes its trim from the floor tags' headings, and
-  /// tags laid a degree or two turned bias it (2.6-13 cm of drift over 2 m in the simulator, its
-  /// trim 0.0005-0.0034 off); the straight runs hold the heading by the encoders and Ed, which no
-  /// tag enters, but carry an error of their own (0.0002-0.0004 off in the core harness, up to
-  /// 0.0012 over the robustness matrix's drawn robots: on tags laid exactly the wheel stage's is
-  /// the better). Negative: the file is never touched.
-  double max_trim_disagreement = 0.0015;
+  /// <veh>.yaml) gets the straight runs' trim, and at two speeds their deadbands
+  /// (straightRunFit), when its trim differs from theirs by more than this (0: always). The wheel
+  /// stage takes its trim from the floor tags' headings, and tags laid a degree or two turned bias
+  /// it (11 of 20 drawn robots drifted over 3 cm in 2 m with it); the straight runs hold the
+  /// heading by the encoders and Ed, which no tag enters. At two speeds they drove 20 drawn robots
+  /// within 0.4-3.9 cm (3 seeds of the core harness; at one speed 0.2-8.2 cm, through deadbands a
+  /// few 0.0001 off). Negative: the file is never touched.
+  double max_trim_disagreement = 0.0;
   /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
   RoundDetectionOptions detection;
   /// A turn whose valid range readings spread (standard deviation) less than this shows a circular
@@ -148,13 +157,33 @@ StageResult writeUahStageFile(const StageOutput& output, const UahResult& result
 double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
                        const wheels::KinematicsParams& params);
 
+/// What the forward straight runs say the kinematics file should hold.
+struct StraightRunFit {
+  double trim = std::numeric_limits<double>::quiet_NaN();
+  /// Runs at two speeds: each wheel's deadband fitted too (their mean kept); else the file's.
+  bool two_speeds = false;
+  double deadband_left = 0, deadband_right = 0;
+};
+
+/// At one speed, straightRunTrim. At two (UahRunOptions::straight_fast_rate_pulses_per_s), the
+/// trim and the deadbands with which `params` command both speeds' duties that held the robot
+/// straight: a deadband off by 0.0005 turns a robot at 0.15 m/s as a trim 0.001 off does, and a
+/// trim fitted at one speed takes that error in, right there and wrong at the others. Falls back
+/// to one speed where the two give no line through the deadbands (a negative deadband, a duty
+/// below its deadband).
+StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
+                              const std::vector<int>& accepted,
+                              const wheels::KinematicsParams& params);
+
 /// What the odometry stage does to the kinematics file's trim.
 struct TrimRefinement {
   bool compared = false;  ///< a kinematics file and an accepted forward run were there
   bool replace = false;   ///< the file is to get the straight runs' trim
   bool written = false;   ///< the file got it
   double file_trim = 0, straight_trim = 0;
-  wheels::KinematicsParams params;  ///< the file's, with the trim it is to have
+  /// The straight runs went at two speeds: the deadbands they give are replaced with the trim.
+  bool deadbands = false;
+  wheels::KinematicsParams params;  ///< the file's, with the trim (and deadbands) it is to have
 };
 
 /// Compares the trim of the kinematics file at `path`, if it exists, with the straight runs'
@@ -316,8 +345,11 @@ class UahRun : public Stage {
   bool awaiting_length_ = false;
   double awaiting_since_s_ = 0;
   double run_right_pulses_ = 0, run_max_dev_rad_ = 0, run_shortening_ = 0;
-  double run_duty_sum_[2] = {0, 0};  ///< left, right over the run's second half
+  double run_duty_sum_[2] = {0, 0};  ///< left, right over the run's window at its (first) rate
   int run_duty_count_ = 0;
+  double fast_duty_sum_[2] = {0, 0};  ///< left, right over the window at the fast rate
+  int fast_duty_count_ = 0;
+  double fast_since_s_ = -1;  ///< when the forward run went over to the fast rate (<0: not yet)
   std::vector<StraightRun> straight_runs_;
 };
 

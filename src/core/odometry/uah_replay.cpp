@@ -14,6 +14,10 @@ namespace odometry {
 
 namespace {
 
+/// A forward run whose right duty over its fast window is this much above its slow one went at
+/// two speeds (one speed: the same within a sagging battery's per cent or two).
+constexpr double kTwoSpeedsDutyRatio = 1.25;
+
 struct Sample {
   double stamp_s;
   double left, right;  // unwrapped ticks
@@ -429,25 +433,35 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     run.right_pulses = std::abs(history.back().right - start.right);
     run.max_heading_deviation_rad = maxHeadingDeviationRad(cumulative, heading);
     run.shortening = pathShortening(cumulative, heading);
-    // The duties commanded over the run's second half by the reference wheel's pulses, as the live
-    // run keeps them (straightRunTrim).
-    double half_s = m.stop_s;
-    for (const Sample& s : history) {
-      if (2 * std::abs(s.right - start.right) >= run.right_pulses) {
-        half_s = s.stamp_s;
-        break;
+    // The duties commanded over the run's windows by the reference wheel's pulses, as the live
+    // run keeps them (straightRunFit): at one speed its second half; a forward run that went
+    // faster over its second half, its slow and fast parts.
+    const StraightRunWindows windows;
+    auto stampAt = [&](double share) {
+      for (const Sample& s : history)
+        if (std::abs(s.right - start.right) >= share * run.right_pulses) return s.stamp_s;
+      return m.stop_s;
+    };
+    auto meanDuties = [&](double from_s, double to_s, double& left, double& right) {
+      double l = 0, r = 0;
+      int count = 0;
+      for (const auto& c : rec.commands) {
+        if (c.stamp_s < from_s || c.stamp_s >= to_s) continue;
+        l += std::abs(c.left), r += std::abs(c.right), ++count;
+        run.forward = c.right > 0;
       }
-    }
-    double duty_left = 0, duty_right = 0;
-    int duties = 0;
-    for (const auto& c : rec.commands) {
-      if (c.stamp_s < half_s || c.stamp_s >= m.stop_s) continue;
-      duty_left += std::abs(c.left), duty_right += std::abs(c.right), ++duties;
-      run.forward = c.right > 0;
-    }
-    if (duties > 0) {
-      run.mean_left_duty = duty_left / duties;
-      run.mean_right_duty = duty_right / duties;
+      if (count > 0) left = l / count, right = r / count;
+    };
+    const double slow_from_s = stampAt(windows.slow_begin), slow_to_s = stampAt(windows.slow_end);
+    const double fast_from_s = stampAt(windows.fast_begin);
+    double slow_left = 0, slow_right = 0, fast_left = 0, fast_right = 0;
+    meanDuties(slow_from_s, slow_to_s, slow_left, slow_right);
+    meanDuties(fast_from_s, m.stop_s, fast_left, fast_right);
+    if (run.forward && slow_right > 0 && fast_right > kTwoSpeedsDutyRatio * slow_right) {
+      run.mean_left_duty = slow_left, run.mean_right_duty = slow_right;
+      run.fast_left_duty = fast_left, run.fast_right_duty = fast_right;
+    } else {
+      meanDuties(stampAt(windows.begin), m.stop_s, run.mean_left_duty, run.mean_right_duty);
     }
     const double odometry_m = run.right_pulses * o.nominal.right_m_per_pulse;
     if (std::abs(length_m / odometry_m - 1) > o.max_length_mismatch) {

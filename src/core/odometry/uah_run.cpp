@@ -64,6 +64,11 @@ void UahRunOptions::validate() const {
   checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
               "must be >= 0");
   checkConfig(straight_ramp_s > 0, "straight_ramp_s", "must be > 0 [s]");
+  checkConfig(straight_fast_rate_pulses_per_s == 0 ||
+                  straight_fast_rate_pulses_per_s > 1.5 * straight_rate_pulses_per_s,
+              "straight_fast_rate_pulses_per_s",
+              "must be 0 (one rate) or over 1.5 times straight_rate_pulses_per_s [pulses/s] (the "
+              "two speeds' duties are a line's two points)");
   checkConfig(max_length_mismatch > 0 && max_length_mismatch < 1, "max_length_mismatch",
               "must be within (0, 1)");
   checkConfig(face_tolerance_rad > 0 && face_tolerance_rad < M_PI / 2, "face_tolerance_rad",
@@ -91,7 +96,12 @@ std::string UahRunOptions::summary() const {
          " pivot experiments per wheel, spin, " + std::to_string(straight_runs) +
          " straight runs of " + formatNumber(straight_length_m, 3) + " m (heading within " +
          deg(straight.max_heading_deviation_rad) + ", up to " +
-         std::to_string(max_straight_retries) + " retries)";
+         std::to_string(max_straight_retries) + " retries" +
+         (straight_fast_rate_pulses_per_s > 0
+              ? "; forward " + formatNumber(straight_rate_pulses_per_s, 3) + " then " +
+                    formatNumber(straight_fast_rate_pulses_per_s, 3) + " pulses/s"
+              : "") +
+         ")";
 }
 
 UahRun::UahRun(const UahRunOptions& options) : options_(options), drive_(options, kMaxSettleS) {
@@ -259,6 +269,9 @@ void UahRun::startStraight(double now_s) {
   heading_integral_ = 0;
   run_duty_sum_[0] = run_duty_sum_[1] = 0;
   run_duty_count_ = 0;
+  fast_duty_sum_[0] = fast_duty_sum_[1] = 0;
+  fast_duty_count_ = 0;
+  fast_since_s_ = -1;
   // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
   // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
   // the heading transient small).
@@ -492,6 +505,10 @@ void UahRun::setStraightLength(double length_m) {
     run.mean_left_duty = run_duty_sum_[0] / run_duty_count_;
     run.mean_right_duty = run_duty_sum_[1] / run_duty_count_;
   }
+  if (fast_duty_count_ > 0) {
+    run.fast_left_duty = fast_duty_sum_[0] / fast_duty_count_;
+    run.fast_right_duty = fast_duty_sum_[1] / fast_duty_count_;
+  }
   run.forward = straight_dir_ > 0;
   straight_runs_.push_back(run);
   ++attempts_;
@@ -639,10 +656,17 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   }
   const double ramp =
       std::clamp(drive_.clock().elapsedS(now_s) / options_.straight_ramp_s, 0.0, 1.0);
-  follow(1,
-         options_.spin_rate_pulses_per_s +
-             ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s),
-         dt_s);
+  double rate = options_.spin_rate_pulses_per_s +
+                ramp * (options_.straight_rate_pulses_per_s - options_.spin_rate_pulses_per_s);
+  // A forward run at two speeds: its second half rises to the fast rate over the same ramp.
+  const bool two_speeds = straight_dir_ > 0 && options_.straight_fast_rate_pulses_per_s > 0;
+  const StraightRunWindows windows;
+  if (two_speeds && dr >= windows.slow_end * target_pulses) {
+    if (fast_since_s_ < 0) fast_since_s_ = now_s;
+    rate += std::clamp((now_s - fast_since_s_) / options_.straight_ramp_s, 0.0, 1.0) *
+            (options_.straight_fast_rate_pulses_per_s - options_.straight_rate_pulses_per_s);
+  }
+  follow(1, rate, dt_s);
   checkStall(0, now_s);
   checkStall(1, now_s);
   // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
@@ -653,10 +677,17 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
                                      options_.heading_integral_duty_per_pulse_s * heading_integral_,
                                  0.0, options_.max_duty);
   duties_ = {straight_dir_ * left, straight_dir_ * drive_.duty(1)};
-  if (2 * dr >= target_pulses) {  // the second half: the ramp and the start's transient are over
+  // The duties that held it straight, past the ramps and their transients.
+  const double share = dr / target_pulses;
+  if (two_speeds ? share >= windows.slow_begin && share < windows.slow_end
+                 : share >= windows.begin) {
     run_duty_sum_[0] += left;
     run_duty_sum_[1] += drive_.duty(1);
     ++run_duty_count_;
+  } else if (two_speeds && share >= windows.fast_begin) {
+    fast_duty_sum_[0] += left;
+    fast_duty_sum_[1] += drive_.duty(1);
+    ++fast_duty_count_;
   }
   return duties_;
 }
@@ -737,6 +768,41 @@ StageResult writeUahStageFile(const StageOutput& output, const UahResult& result
   return r;
 }
 
+StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
+                              const std::vector<int>& accepted,
+                              const wheels::KinematicsParams& params) {
+  StraightRunFit fit;
+  fit.trim = straightRunTrim(runs, accepted, params);
+  fit.deadband_left = params.deadband_left, fit.deadband_right = params.deadband_right;
+  // The two speeds' mean duty pairs (slow: l1, r1; fast: l2, r2) over the forward runs.
+  double l1 = 0, r1 = 0, l2 = 0, r2 = 0;
+  int n = 0;
+  for (const int i : accepted) {
+    if (i < 0 || i >= static_cast<int>(runs.size())) continue;
+    const StraightRun& r = runs[static_cast<size_t>(i)];
+    if (!r.forward || !(r.mean_left_duty > 0) || !(r.mean_right_duty > 0) ||
+        !(r.fast_left_duty > 0) || !(r.fast_right_duty > 0))
+      continue;
+    l1 += r.mean_left_duty, r1 += r.mean_right_duty, ++n;
+    l2 += r.fast_left_duty, r2 += r.fast_right_duty;
+  }
+  if (n == 0 || !(l2 - l1 > 0)) return fit;
+  // Equal wheel speeds through the deadband compensation d = o + (1 − o)·u put the duty pairs on
+  // the line r = s·l + c through (o_l, o_r), with s = k·(1 − o_r)/(1 − o_l) for k = u_r/u_l. The
+  // line's place gives the deadbands' difference (their mean, the wheel stage's, kept: a shared
+  // offset hardly turns the robot), its slope then k.
+  const double s = (r2 - r1) / (l2 - l1);
+  const double c = r1 / n - s * l1 / n;
+  const double mean = 0.5 * (params.deadband_left + params.deadband_right);
+  const double difference = 2 * (c - mean * (1 - s)) / (1 + s);
+  const double o_l = mean - 0.5 * difference, o_r = mean + 0.5 * difference;
+  if (!(s > 0) || !(o_l >= 0) || !(o_r >= 0) || !(o_l < l1 / n) || !(o_r < r1 / n)) return fit;
+  fit.two_speeds = true;
+  fit.deadband_left = o_l, fit.deadband_right = o_r;
+  fit.trim = wheels::trimFromSpeedRatio(s * (1 - o_l) / (1 - o_r), params.gain);
+  return fit;
+}
+
 double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
                        const wheels::KinematicsParams& params) {
   double left = 0, right = 0;
@@ -760,14 +826,19 @@ TrimRefinement planTrimRefinement(const std::string& path, const std::vector<Str
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return out;
   out.params = wheels::readKinematicsFile(path);
-  const double straight_trim = straightRunTrim(runs, accepted, out.params);
-  if (!std::isfinite(straight_trim)) return out;
+  const StraightRunFit fit = straightRunFit(runs, accepted, out.params);
+  if (!std::isfinite(fit.trim)) return out;
   out.compared = true;
   out.file_trim = out.params.trim;
-  out.straight_trim = straight_trim;
-  out.replace = max_disagreement >= 0 && std::abs(straight_trim - out.file_trim) > max_disagreement;
+  out.straight_trim = fit.trim;
+  out.replace = max_disagreement >= 0 && std::abs(fit.trim - out.file_trim) > max_disagreement;
   if (out.replace) {
-    out.params.trim = straight_trim;
+    out.params.trim = fit.trim;
+    if (fit.two_speeds) {
+      out.deadbands = true;
+      out.params.deadband_left = fit.deadband_left;
+      out.params.deadband_right = fit.deadband_right;
+    }
     out.params.validate();
   }
   return out;

@@ -103,6 +103,7 @@ OdometryCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros:
   p.get("pivot_rate_pulses_per_s", r.pivot_rate_pulses_per_s);
   p.get("spin_rate_pulses_per_s", r.spin_rate_pulses_per_s);
   p.get("straight_rate_pulses_per_s", r.straight_rate_pulses_per_s);
+  p.get("straight_fast_rate_pulses_per_s", r.straight_fast_rate_pulses_per_s);
   readDrive(p, r);
   p.get("straight_length_m", r.straight_length_m);
   p.get("straight_runs", r.straight_runs);

@@ -111,19 +111,18 @@ struct StraightRun {
   /// recorded).
   double mean_left_duty = 0.0;
   double mean_right_duty = 0.0;
-  /// A forward run at two speeds (straightRunWindows): the same over its fast part, and
+  /// A forward run at two speeds (StraightRunWindows): the same over its fast part, and
   /// mean_left/right_duty over its slow part (0: one speed).
   double fast_left_duty = 0.0;
   double fast_right_duty = 0.0;
   bool forward = true;
 };
 
-
 /// Where a straight run's duties are averaged, as shares of its right wheel's pulses: past the
 /// start's ramp and transient and, at two speeds, past the change of speed.
 struct StraightRunWindows {
-  double begin = 0.5, end = 1.0;  ///< one speed: the second half
-  /// Two speeds: the slow part (the first half) and the fast one (the second).
+  double begin = 0.5;  ///< one speed: the second half, from here to the run's end
+  /// Two speeds: the slow part (in the first half) and the fast one (from here to the end).
   double slow_begin = 0.2, slow_end = 0.5, fast_begin = 0.7;
 };
 

@@ -83,12 +83,34 @@ size_t distortionCount(DistortionModel m) {
   return m == DistortionModel::kPlumbBob ? 5 : m == DistortionModel::kRationalPolynomial ? 8 : 4;
 }
 
+/// A camera matrix from the views' homographies (cv::initCameraMatrix2D), empty when it gives
+/// none.
+cv::Mat pinholeStart(const std::vector<std::vector<cv::Point3d>>& obj,
+                     const std::vector<std::vector<cv::Point2d>>& img, const cv::Size& size) {
+  std::vector<std::vector<cv::Point3f>> o;
+  std::vector<std::vector<cv::Point2f>> i;
+  for (const auto& v : obj) o.emplace_back(v.begin(), v.end());
+  for (const auto& v : img) i.emplace_back(v.begin(), v.end());
+  try {
+    cv::Mat k = cv::initCameraMatrix2D(o, i, size);
+    k.convertTo(k, CV_64F);
+    if (!(k.at<double>(0, 0) > 0 && k.at<double>(1, 1) > 0)) return {};
+    return k;
+  } catch (const cv::Exception&) {
+    return {};
+  }
+}
+
 /// cv::fisheye::calibrate, started from k, d when `flags` asks for the guess. OpenCV's fisheye
 /// fit first places every view with the starting model (its InitExtrinsics); a start far from the
-/// lens (a warm start whose k3, k4 ran off on views that do not pin them, or a focal length twice
-/// too long) leaves a view's corners unplaceable and the fit throws ("norm_u1 > 0"), though the
-/// views fit well. Then it is started again from the same camera matrix without distortion, then
-/// from OpenCV's own start; the error of the first try is rethrown when every start fails.
+/// lens can leave a view's corners unplaceable and the fit throws ("norm_u1 > 0"), though the
+/// views fit well: a warm start whose k3, k4 ran off on views that do not pin them, a focal length
+/// twice too long, or OpenCV's own start, whose focal length (the image's larger side over π)
+/// maps no ray in front of the camera beyond f·π/2 from the centre (320 px for 640 x 480): a
+/// robot's view with a corner 322 px out made it throw (not every such view does). Then it is
+/// started again: from the same camera matrix without distortion, from OpenCV's own start, and
+/// from a pinhole camera matrix fitted to the views' homographies; the error of the first try is
+/// rethrown when every start fails.
 double fisheyeCalibrate(const std::vector<std::vector<cv::Point3d>>& obj,
                         const std::vector<std::vector<cv::Point2d>>& img, const cv::Size& size,
                         cv::Mat& k, cv::Mat& d, std::vector<cv::Mat>& rvecs,
@@ -98,15 +120,19 @@ double fisheyeCalibrate(const std::vector<std::vector<cv::Point3d>>& obj,
   try {
     return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, flags, criteria);
   } catch (const cv::Exception& first) {
-    if (!guessed) throw;
     std::vector<int> retries;
-    if (cv::countNonZero(d_start) > 0) retries.push_back(flags);
-    retries.push_back(flags & ~cv::fisheye::CALIB_USE_INTRINSIC_GUESS);
-    for (const int retry_flags : retries) {
-      k = k_start.clone();
+    if (guessed && cv::countNonZero(d_start) > 0) retries.push_back(flags);
+    if (guessed) retries.push_back(flags & ~cv::fisheye::CALIB_USE_INTRINSIC_GUESS);
+    // A pinhole start from the views' homographies (OpenCV's own start is a focal length from
+    // the image's size alone).
+    const cv::Mat pinhole = pinholeStart(obj, img, size);
+    if (!pinhole.empty()) retries.push_back(flags | cv::fisheye::CALIB_USE_INTRINSIC_GUESS);
+    for (size_t i = 0; i < retries.size(); ++i) {
+      const bool last = i + 1 == retries.size();
+      k = (!pinhole.empty() && last ? pinhole : k_start).clone();
       d = cv::Mat::zeros(4, 1, CV_64F);
       try {
-        return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, retry_flags, criteria);
+        return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, retries[i], criteria);
       } catch (const cv::Exception&) {
       }
     }
@@ -838,6 +864,14 @@ void dropViewsTheHalvesDisagreeOver(const std::vector<std::vector<cv::Point2f>>&
 
 }  // namespace
 
+bool muchSurer(const ProjectionUncertainty& candidate, const ProjectionUncertainty& current,
+               double margin) {
+  if (!candidate.valid) return false;
+  if (!current.valid) return true;
+  return candidate.rms_px < current.rms_px * (1 - margin) ||
+         (candidate.worst_px < current.worst_px / 2 && candidate.rms_px <= current.rms_px);
+}
+
 ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,
                                    const cv::Size& image_size, const BoardSpec& board,
                                    const CalibrationOptions& options,
@@ -903,6 +937,10 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
     return result[k].uncertainty.valid ? result[k].uncertainty.rms_px
                                        : std::numeric_limits<double>::infinity();
   };
+  const auto worstSureness = [&](size_t k) {
+    return result[k].uncertainty.valid ? result[k].uncertainty.worst_px
+                                       : std::numeric_limits<double>::infinity();
+  };
   // The best of models [0, end): of those the gate passes and that explain the corners within
   // model_rms_margin as well as the best of them, the first unless a later one is much surer.
   // (The halves' cross-validation judges in the gate only: between two models that both pass,
@@ -918,8 +956,8 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
       if (!passes(k) ||
           !(result[k].all_corners_rms_px <= lowest * (1 + options.model_rms_margin)))
         continue;
-      if (chosen == end ||
-          sureness(k) < sureness(chosen) * (1 - options.model_uncertainty_margin))
+      if (chosen == end || muchSurer(result[k].uncertainty, result[chosen].uncertainty,
+                                     options.model_uncertainty_margin))
         chosen = k;
     }
     return chosen;
@@ -941,9 +979,11 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
                     result[j].all_corners_rms_px, result[chosen].all_corners_rms_px) +
                     with +
                     fmt("), but the views pin it down less where no board was seen: projection "
-                        "uncertainty %.3f px RMS over the image against %.3f px",
-                        sureness(j), sureness(chosen)) +
-                    with + ": it does not fit this lens there"
+                        "uncertainty %.3f px RMS over the image and %.3f px in its worst cell "
+                        "against %.3f px",
+                        sureness(j), worstSureness(j), sureness(chosen)) +
+                    fmt(" and %.3f px", worstSureness(chosen)) + with +
+                    ": it does not fit this lens there"
               : fmt("the gate passed it, but it explains the corners worse: %.4f px RMS over all "
                     "of them (outliers included) against %.4f px",
                     result[j].all_corners_rms_px, result[chosen].all_corners_rms_px) +

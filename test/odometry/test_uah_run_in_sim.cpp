@@ -11,11 +11,17 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <memory>
 #include <random>
 
+#include "autocal/camera/calibration_files.h"
 #include "autocal/errors.h"
+#include "autocal/extrinsics/extrinsics_file.h"
+#include "autocal/extrinsics/ground_projection.h"
+#include "autocal/io/atomic_file.h"
+#include "autocal/io/yaml_reader.h"
 #include "autocal/odometry/calibration_file.h"
 #include "autocal/odometry/uah_run.h"
 #include "autocal/sim/config.h"
@@ -524,6 +530,96 @@ TEST(StraightRunTrim, TheStageReadsTheKinematicsFileBeforeItWritesItsOwn) {
   for (const auto& [name, value] : r.figures)
     trims += name == "straight_run_trim" || name == "kinematics_trim";
   EXPECT_EQ(trims, 2);
+  std::filesystem::remove_all(dir);
+}
+
+// Where the trim is replaced and the wheel stage wrote the camera's extrinsics with the yaw's
+// sensitivity to its hops' turn, the stage finds how its hops turned (the wheel stage's
+// kinematics driven, the new ones taken as right) and moves the yaw by it; the file is rewritten
+// through the camera_intrinsic file, its other keys kept. A file without the sensitivity (an older
+// one, the offline command's) is left as it is.
+TEST(StraightRunTrim, TheStageCorrectsTheCameraYawForTheTurnOfTheHops) {
+  const test::UahInSim& u = realisticRun();
+  ASSERT_TRUE(u.done) << u.failure;
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("autocal_uah_yaw_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const StageOutput output{dir.string(), "robot"};
+  const std::string kinematics = wheels::kinematicsPath(output.calibration_root, output.veh);
+  const std::string intrinsics =
+      camera::cameraIntrinsicsPath(output.calibration_root, output.veh);
+  const std::string extrinsics_file =
+      extrinsics::extrinsicsPath(output.calibration_root, output.veh);
+  for (const std::string& f : {kinematics, intrinsics, extrinsics_file})
+    std::filesystem::create_directories(std::filesystem::path(f).parent_path());
+  {
+    std::ofstream f(intrinsics);
+    f << "image_width: 640\nimage_height: 480\ncamera_name: robot\n"
+         "camera_matrix: {rows: 3, cols: 3, data: [300, 0, 320, 0, 300, 240, 0, 0, 1]}\n"
+         "distortion_model: plumb_bob\n"
+         "distortion_coefficients: {rows: 1, cols: 5, data: [0, 0, 0, 0, 0]}\n"
+         "rectification_matrix: {rows: 3, cols: 3, data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}\n"
+         "projection_matrix: {rows: 3, cols: 4, data: [300, 0, 320, 0, 0, 300, 240, 0, 0, 0, 1, 0]}"
+         "\n";
+  }
+  const extrinsics::CameraInfoRectification camera = extrinsics::loadRectification(intrinsics);
+  extrinsics::CameraMount mount;
+  mount.height_m = 0.105, mount.pitch_rad = 0.26, mount.yaw_rad = 0.01, mount.x_m = 0.055;
+  const double yaw_per_turn = 0.34;
+  auto writeExtrinsics = [&](bool sensitivity) {
+    std::vector<std::pair<std::string, double>> figures{{"drives", 4}, {"turns", 4}};
+    if (sensitivity) {
+      figures.emplace_back(extrinsics::kYawPerTurnKey, yaw_per_turn);
+      figures.emplace_back(extrinsics::kStraightSpeedKey, 0.25);
+    }
+    writeFileAtomically(extrinsics_file,
+                        extrinsics::extrinsicsYaml(
+                            extrinsics::homographyFromMount(mount, camera.rectified), mount,
+                            nullptr, figures, camera.rectified, "a test", "2026-01-01T00:00:00Z"));
+  };
+  // The wheel stage's kinematics: the straight runs' deadbands, a trim 0.004 above theirs.
+  wheels::KinematicsParams p = motors();
+  const odometry::StraightRunFit fit =
+      odometry::straightRunFit(u.straight_runs, u.result.straight.accepted_runs, p);
+  ASSERT_TRUE(std::isfinite(fit.trim));
+  p.trim = fit.trim + 0.004;
+  p.deadband_left = fit.deadband_left, p.deadband_right = fit.deadband_right;
+  auto finish = [&] {
+    wheels::writeKinematicsFile(kinematics, p);
+    return odometry::finishUahStage(output, u.result, u.turns, 100.0, u.straight_runs, 0.0);
+  };
+
+  // Without the sensitivity: left alone.
+  writeExtrinsics(false);
+  const std::string untouched = readFile(extrinsics_file);
+  finish();
+  EXPECT_EQ(readFile(extrinsics_file), untouched);
+
+  writeExtrinsics(true);
+  const StageResult r = finish();
+  const wheels::KinematicsParams after = wheels::readKinematicsFile(kinematics);
+  const double turn_per_m =
+      odometry::straightTurnPerM(p, after, 0.25, u.result.calibrated.wheelbase_m);
+  // Its hops turned left by about 2 · 0.004 / wheelbase per metre.
+  EXPECT_NEAR(turn_per_m, 2 * 0.004 / u.result.calibrated.wheelbase_m, 0.01);
+  double change = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [name, value] : r.figures)
+    if (name == "extrinsics_yaw_change_rad") change = value;
+  EXPECT_NEAR(change, yaw_per_turn * turn_per_m, 1e-9);
+  YamlMap y = YamlMap::loadFile(extrinsics_file);
+  YamlMap pose = y.map("camera_pose");
+  EXPECT_NEAR(pose.required<double>("yaw_rad"), mount.yaw_rad + yaw_per_turn * turn_per_m, 1e-6);
+  EXPECT_NEAR(pose.required<double>("height_m"), mount.height_m, 1e-9);
+  EXPECT_NEAR(y.required<double>(extrinsics::kStraightTurnKey), turn_per_m, 1e-4);
+  EXPECT_EQ(y.required<double>("drives"), 4);
+  const extrinsics::CameraMount moved =
+      extrinsics::mountForStraightTurn(mount, yaw_per_turn, turn_per_m);
+  const Eigen::Matrix3d H = extrinsics::readHomography(extrinsics_file);
+  const Eigen::Matrix3d expected = extrinsics::homographyFromMount(moved, camera.rectified);
+  EXPECT_LT((H - expected).norm(), 1e-6 * expected.norm());
+  // The camera turned about the axle's middle with the yaw.
+  EXPECT_NEAR(std::hypot(moved.x_m, moved.y_m), mount.x_m, 1e-12);
+  EXPECT_TRUE(std::filesystem::exists(extrinsics_file + ".prev"));
   std::filesystem::remove_all(dir);
 }
 

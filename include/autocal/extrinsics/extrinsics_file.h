@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "autocal/extrinsics/floor_board.h"
+#include "autocal/extrinsics/tag_mount.h"
 
 namespace autocal {
 namespace extrinsics {
@@ -33,6 +34,32 @@ std::string groundViewPath(const std::string& extrinsics_yaml);
 /// The homography of such a file (Duckietown's or autocal's). Throws ConfigError naming the file
 /// when it has no 9 finite numbers under `homography`.
 Eigen::Matrix3d readHomography(const std::string& path);
+
+/// The extrinsics file's keys a later stage needs to correct its mount for the turn of the
+/// straight drives it came from (the wheel stage's hops, taken as straight).
+constexpr const char* kYawPerTurnKey = "yaw_per_turn_per_m";  ///< TagMountResult's
+constexpr const char* kStraightSpeedKey = "straight_speed_mps";  ///< the hops' speed
+constexpr const char* kStraightTurnKey = "straight_turn_per_m";  ///< the turn applied so far
+
+/// What correctForStraightTurn did.
+struct StraightTurnCorrection {
+  bool corrected = false;
+  double turn_per_m = 0;  ///< the straight drives' turn the file is now for [rad/m]
+  double yaw_change_rad = 0;
+  CameraMount mount;      ///< the file's mount now
+  std::string why_not;    ///< when not corrected: why
+};
+
+/// Rewrites the extrinsics file at `path` (the wheel stage's, with kYawPerTurnKey) for straight
+/// drives that turned by `turn_per_m` per metre instead of what it was for (kStraightTurnKey, else
+/// none): the mount moved by mountForStraightTurn, its homography through `camera` (which must be
+/// the camera its projection_matrix names), every other key kept. Atomically, an existing .prev
+/// kept. Not corrected (why_not says why, nothing written) when there is no such file or it has no
+/// kYawPerTurnKey. Throws ConfigError for a file that cannot be read or another camera, IoError.
+StraightTurnCorrection correctForStraightTurn(const std::string& path, double turn_per_m,
+                                              const CameraInfoRectification& camera,
+                                              const std::string& source,
+                                              const std::string& time_utc);
 
 struct ExtrinsicsArgs {
   std::string image, camera_info, out;

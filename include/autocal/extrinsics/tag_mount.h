@@ -62,6 +62,11 @@ struct TagMountOptions {
   /// whose stills share two tags or more; one tag's angle alone is noisier, and a turn it sees
   /// counts from √2 times this.
   double max_straight_turn_rad = 0.01;
+  /// The turn per metre driven forward [rad/m, counter-clockwise] that a drive known to be
+  /// straight is taken to have where the tags see none above max_straight_turn_rad: 0 = none. A
+  /// drive commanded with wheel speeds whose right/left ratio is 1 + e turns by e / wheelbase per
+  /// metre; the camera's yaw moves with it (TagMountResult::yaw_per_turn_per_m).
+  double straight_turn_per_m = 0;
 
   /// Throws ConfigError naming the bad key.
   void validate() const;
@@ -80,7 +85,19 @@ struct TagMountResult {
   /// has_sigma is false when fewer than three stills could each be left out.
   CameraMount sigma;
   bool has_sigma = false;
+  /// How the yaw moves with TagMountOptions::straight_turn_per_m [rad per rad/m]: the straight
+  /// drives' turn, taken as none, is as uncertain as the trim they were driven with, and the tags
+  /// far ahead of the axle move aside with it (about 0.35 m of yaw per rad/m). Where a later
+  /// calibration finds the drives turned by c per metre, the yaw was off by about
+  /// yaw_per_turn_per_m · c (mountForStraightTurn).
+  double yaw_per_turn_per_m = 0;
 };
+
+/// `mount` (from mountFromTags with the straight drives taken to turn by none) as it is had they
+/// turned by `turn_per_m` per metre: the yaw moved by yaw_per_turn_per_m · turn_per_m, the
+/// camera's offsets turned with it about the axle's middle.
+CameraMount mountForStraightTurn(const CameraMount& mount, double yaw_per_turn_per_m,
+                                 double turn_per_m);
 
 /// Where floorSigmaM is judged: a floor point this far ahead of the camera [m], about where a lane
 /// follower looks.

@@ -184,7 +184,15 @@ struct TrimRefinement {
   /// The straight runs went at two speeds: the deadbands they give are replaced with the trim.
   bool deadbands = false;
   wheels::KinematicsParams params;  ///< the file's, with the trim (and deadbands) it is to have
+  wheels::KinematicsParams before;  ///< the file's as read
 };
+
+/// The turn per metre [rad/m, counter-clockwise] of a robot driving forward at `speed_mps` with
+/// the duties `driven` gives for straight, where `truth` is right: the wheel speeds `truth` says
+/// those duties make, their difference over their mean and `wheelbase_m`.
+double straightTurnPerM(const wheels::KinematicsParams& driven,
+                        const wheels::KinematicsParams& truth, double speed_mps,
+                        double wheelbase_m);
 
 /// Compares the trim of the kinematics file at `path`, if it exists, with the straight runs'
 /// (straightRunTrim with the file's gain and deadbands): `replace` when they differ by more than
@@ -207,7 +215,12 @@ TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<S
 /// stage before it writes anything; `max_trim_disagreement` negative: it is not read), then the
 /// stage's file is written (writeUahStageFile), then the kinematics file's trim is replaced where
 /// planTrimRefinement says so. The DONE figures add straight_run_trim and kinematics_trim where
-/// they were compared; the text says a replacement.
+/// they were compared; the text says a replacement. Where the trim was replaced and the wheel
+/// stage wrote the camera's extrinsics (<calibration_root>/camera_extrinsic/<veh>.yaml, with
+/// extrinsics::kYawPerTurnKey), its mount is corrected for the turn its hops made with the wheel
+/// stage's kinematics (straightTurnPerM at extrinsics::kStraightSpeedKey, the wheelbase found
+/// here; extrinsics::correctForStraightTurn, through the camera_intrinsic file) and the DONE
+/// figures add extrinsics_yaw_change_rad.
 StageResult finishUahStage(const StageOutput& output, const UahResult& result,
                            const std::vector<UahTurn>& turns, double elapsed_s,
                            const std::vector<StraightRun>& straight_runs,

@@ -2,9 +2,13 @@
 #include "autocal/extrinsics/extrinsics_file.h"
 
 #include <cmath>
+#include <filesystem>
+#include <optional>
 #include <sstream>
 
 #include "autocal/errors.h"
+#include "autocal/extrinsics/ground_projection.h"
+#include "autocal/io/atomic_file.h"
 #include "autocal/io/camera_info_file.h"
 #include "autocal/io/format.h"
 #include "autocal/io/yaml_reader.h"
@@ -141,6 +145,74 @@ ExtrinsicsArgs parseExtrinsicsArgs(const std::vector<std::string>& args) {
   }
   if (!(a.options.max_board_rms_m > 0)) throw UsageError("--max-board-rms: must be > 0 [m]");
   return a;
+}
+
+namespace {
+
+CameraMount readMount(YamlMap& y, const std::string& key) {
+  YamlMap m = y.map(key);
+  CameraMount out;
+  out.height_m = m.required<double>("height_m");
+  out.pitch_rad = m.required<double>("pitch_rad");
+  out.roll_rad = m.required<double>("roll_rad");
+  out.yaw_rad = m.required<double>("yaw_rad");
+  out.x_m = m.required<double>("x_m");
+  out.y_m = m.required<double>("y_m");
+  return out;
+}
+
+}  // namespace
+
+StraightTurnCorrection correctForStraightTurn(const std::string& path, double turn_per_m,
+                                              const CameraInfoRectification& camera,
+                                              const std::string& source,
+                                              const std::string& time_utc) {
+  StraightTurnCorrection c;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    c.why_not = "no extrinsics file at " + path;
+    return c;
+  }
+  YamlMap y = YamlMap::loadFile(path);
+  if (!y.has(kYawPerTurnKey)) {
+    c.why_not = path + " has no " + std::string(kYawPerTurnKey);
+    return c;
+  }
+  const double yaw_per_turn = y.required<double>(kYawPerTurnKey);
+  const double before = y.optional<double>(kStraightTurnKey, 0.0);
+  const std::vector<double> p = y.required<std::vector<double>>("projection_matrix");
+  if (p.size() != 9) y.fail("projection_matrix", "must be 9 numbers (row-major 3x3)");
+  for (int i = 0; i < 9; ++i) {
+    if (std::abs(p[static_cast<size_t>(i)] - camera.rectified.P(i / 3, i % 3)) >
+        1e-6 * (1 + std::abs(p[static_cast<size_t>(i)]))) {
+      y.fail("projection_matrix", "is not the camera_info's P given: the file is for another "
+                                  "calibration of the camera");
+    }
+  }
+  const CameraMount old = readMount(y, "camera_pose");
+  std::optional<CameraMount> sigma;
+  if (y.has("camera_pose_sigma")) sigma = readMount(y, "camera_pose_sigma");
+  std::vector<std::pair<std::string, double>> figures;
+  for (const char* key : {"plane_rms_m", "rejected_sightings", "turn_centre_rms_m",
+                          "yaw_spread_rad", "drives", "turns", kYawPerTurnKey,
+                          kStraightSpeedKey}) {
+    if (y.has(key)) figures.emplace_back(key, y.required<double>(key));
+  }
+  figures.emplace_back(kStraightTurnKey, turn_per_m);
+  c.mount = mountForStraightTurn(old, yaw_per_turn, turn_per_m - before);
+  const Eigen::Matrix3d H = homographyFromMount(c.mount, camera.rectified);
+  // In a run the wheel stage wrote this file a moment ago and kept the one from before the run as
+  // `.prev`: that one stays. Without a `.prev`, the file replaced becomes it.
+  AtomicWriteOptions write;
+  if (std::filesystem::exists(path + ".prev", ec)) write.backup_suffix.clear();
+  writeFileAtomically(path,
+                      extrinsicsYaml(H, c.mount, sigma ? &*sigma : nullptr, figures,
+                                     camera.rectified, source, time_utc),
+                      write);
+  c.corrected = true;
+  c.turn_per_m = turn_per_m;
+  c.yaw_change_rad = c.mount.yaw_rad - old.yaw_rad;
+  return c;
 }
 
 CameraInfoRectification loadRectification(const std::string& path) {

@@ -6,9 +6,12 @@
 #include <filesystem>
 #include <limits>
 
+#include "autocal/camera/calibration_files.h"
 #include "autocal/errors.h"
+#include "autocal/extrinsics/extrinsics_file.h"
 #include "autocal/io/atomic_file.h"
 #include "autocal/io/format.h"
+#include "autocal/io/yaml_reader.h"
 #include "autocal/odometry/calibration_file.h"
 
 namespace autocal {
@@ -820,12 +823,21 @@ double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<i
   return wheels::trimFromSpeedRatio(u_right / u_left, params.gain);
 }
 
+double straightTurnPerM(const wheels::KinematicsParams& driven,
+                        const wheels::KinematicsParams& truth, double speed_mps,
+                        double wheelbase_m) {
+  const double w = speed_mps / driven.radius;
+  const wheels::WheelSpeeds s =
+      wheels::dutiesToSpeeds(truth, wheels::speedsToDuties(driven, {w, w}));
+  return 2 * (s.right - s.left) / ((s.right + s.left) * wheelbase_m);
+}
+
 TrimRefinement planTrimRefinement(const std::string& path, const std::vector<StraightRun>& runs,
                                   const std::vector<int>& accepted, double max_disagreement) {
   TrimRefinement out;
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return out;
-  out.params = wheels::readKinematicsFile(path);
+  out.params = out.before = wheels::readKinematicsFile(path);
   const StraightRunFit fit = straightRunFit(runs, accepted, out.params);
   if (!std::isfinite(fit.trim)) return out;
   out.compared = true;
@@ -864,6 +876,48 @@ TrimRefinement refineKinematicsTrim(const std::string& path, const std::vector<S
   return t;
 }
 
+namespace {
+
+/// The wheel stage's hops, taken as straight, turned as its kinematics leave a robot turning: the
+/// camera's extrinsics it wrote with their sensitivity to that turn are corrected for it. The
+/// trim and the odometry file stand whatever happens here: a file that cannot be corrected (no
+/// intrinsics file, another camera's P, one that cannot be read) is left as it is, and the DONE
+/// text says why.
+void correctExtrinsicsForTheHops(const StageOutput& output, const TrimRefinement& t,
+                                 double wheelbase_m, StageResult* r) {
+  const std::string path = extrinsics::extrinsicsPath(output.calibration_root, output.veh);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return;
+  try {
+    YamlMap y = YamlMap::loadFile(path);
+    if (!y.has(extrinsics::kYawPerTurnKey) || !y.has(extrinsics::kStraightSpeedKey)) return;
+    const double turn_per_m = straightTurnPerM(
+        t.before, t.params, y.required<double>(extrinsics::kStraightSpeedKey), wheelbase_m);
+    const std::string intrinsics =
+        camera::cameraIntrinsicsPath(output.calibration_root, output.veh);
+    const extrinsics::StraightTurnCorrection c = extrinsics::correctForStraightTurn(
+        path, turn_per_m, extrinsics::loadRectification(intrinsics),
+        "the floor tags of the wheel stage, its hops' turn from the odometry stage's trim "
+        "(intrinsics " + intrinsics + ")",
+        utcNowIso8601());
+    if (!c.corrected) return;
+    r->figures.push_back({"extrinsics_yaw_change_rad", c.yaw_change_rad});
+    const std::string said = "the camera's yaw in " + path + " moved by " +
+                             formatNumber(c.yaw_change_rad * 180 / M_PI, 3) +
+                             " deg (the wheel stage's hops turned " +
+                             formatNumber(turn_per_m * 180 / M_PI, 3) + " deg per metre)";
+    r->log += "; " + said;
+    r->text += "; " + said;
+  } catch (const Error& e) {
+    const std::string said =
+        "the camera's extrinsics in " + path + " were not corrected for the new trim: " + e.what();
+    r->log += "; " + said;
+    r->text += "; " + said;
+  }
+}
+
+}  // namespace
+
 StageResult finishUahStage(const StageOutput& output, const UahResult& result,
                            const std::vector<UahTurn>& turns, double elapsed_s,
                            const std::vector<StraightRun>& straight_runs,
@@ -888,6 +942,7 @@ StageResult finishUahStage(const StageOutput& output, const UahResult& result,
              " (they differ by more than max_trim_disagreement " +
              formatNumber(max_trim_disagreement, 3) +
              ": floor tags laid turned bias the tags' trim)";
+    correctExtrinsicsForTheHops(output, t, result.calibrated.wheelbase_m, &r);
   }
   return r;
 }

@@ -43,8 +43,8 @@ namespace {
 /// Writes the extrinsics file (and its ground view over `ground_frame` when there is one); its
 /// DONE figures.
 Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResult& x,
-                        const std::string& intrinsics_file, const cv::Mat& ground_frame,
-                        std::string* log) {
+                        double hop_speed_mps, const std::string& intrinsics_file,
+                        const cv::Mat& ground_frame, std::string* log) {
   const extrinsics::CameraInfoRectification camera = extrinsics::loadRectification(intrinsics_file);
   const extrinsics::CameraMount& m = x.mount;
   const Eigen::Matrix3d H = extrinsics::homographyFromMount(m, camera.rectified);
@@ -56,7 +56,10 @@ Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResul
                            {"turn_centre_rms_m", x.centre_rms_m},
                            {"yaw_spread_rad", x.yaw_spread_rad},
                            {"drives", static_cast<double>(x.straight)},
-                           {"turns", static_cast<double>(x.spins)}},
+                           {"turns", static_cast<double>(x.spins)},
+                           // For the odometry stage, which finds how the hops turned.
+                           {extrinsics::kYawPerTurnKey, x.yaw_per_turn_per_m},
+                           {extrinsics::kStraightSpeedKey, hop_speed_mps}},
                           camera.rectified,
                           "the floor tags of the wheel stage (intrinsics " + intrinsics_file + ")",
                           utcNowIso8601()));
@@ -107,7 +110,7 @@ StageResult WheelRun::finish(const StageOutput& output) {
     std::string log;
     const Figures f =
         writeExtrinsics(extrinsics::extrinsicsPath(output.calibration_root, output.veh), *x,
-                        options_.intrinsics_file, ground_frame_, &log);
+                        options_.drive_speed_mps, options_.intrinsics_file, ground_frame_, &log);
     r.figures.insert(r.figures.end(), f.begin(), f.end());
     r.log += log;
   } else {

@@ -506,6 +506,8 @@ TEST(ModelChoice, MuchSurerOverTheImageOrInItsWorstCell) {
   EXPECT_TRUE(muchSurer(u(0.170, 0.199), u(0.207, 0.950), 0.2));
   // The worst cell lower, but the RMS higher: not surer.
   EXPECT_FALSE(muchSurer(u(0.21, 0.199), u(0.207, 0.950), 0.2));
+  // A margin of 1 turns the rule off.
+  EXPECT_FALSE(muchSurer(u(0.1, 0.1), u(0.207, 0.950), 1.0));
   ProjectionUncertainty none;
   EXPECT_FALSE(muchSurer(none, u(0.2, 0.5), 0.2));
   EXPECT_TRUE(muchSurer(u(0.2, 0.5), none, 0.2));

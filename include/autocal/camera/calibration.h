@@ -38,8 +38,8 @@ struct CalibrationOptions {
   double model_corner_cap_factor = 3.0;
   /// Of those, a model later in the order replaces an earlier one when its projection
   /// uncertainty (RMS over the image) is lower by more than this fraction, or its worst cell is
-  /// less than half with the RMS no higher (muchSurer): it is the one the views pin down where no
-  /// board was seen [1].
+  /// lower by more than it and less than half with the RMS no higher (muchSurer): it is the one
+  /// the views pin down where no board was seen [1].
   double model_uncertainty_margin = 0.2;
   /// Fewer views than this are refused.
   int min_views = 6;
@@ -184,8 +184,8 @@ std::vector<std::string> checkQuality(const CalibrationResult& result,
                                       const QualityGateOptions& gate);
 
 /// Whether a fit with projection uncertainty `candidate` is much surer than one with `current`:
-/// its RMS over the image lower by more than `margin` (a fraction), or its worst cell less than
-/// half of the other's with the RMS no higher. A rational fit of a fisheye lens in the robustness
+/// its RMS over the image lower by more than `margin` (a fraction), or its worst cell lower by
+/// more than `margin` and less than half of the other's, with the RMS no higher (margin 1: never). A rational fit of a fisheye lens in the robustness
 /// matrix had the equidistant fit's RMS within 18 % but five times its worst cell, and was 1.7 px
 /// off in a corner; on OpenCV's left*.jpg, plumb_bob's worst cell is 1.6 times equidistant's and
 /// plumb_bob is kept. An invalid uncertainty is never surer, and a valid one is surer than an

@@ -869,7 +869,8 @@ bool muchSurer(const ProjectionUncertainty& candidate, const ProjectionUncertain
   if (!candidate.valid) return false;
   if (!current.valid) return true;
   return candidate.rms_px < current.rms_px * (1 - margin) ||
-         (candidate.worst_px < current.worst_px / 2 && candidate.rms_px <= current.rms_px);
+         (candidate.worst_px < current.worst_px * std::min(1 - margin, 0.5) &&
+          candidate.rms_px <= current.rms_px);
 }
 
 ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& views,

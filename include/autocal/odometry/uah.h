@@ -108,22 +108,47 @@ struct StraightRun {
   /// The duties commanded over the run's second half (by the reference wheel's pulses), mean
   /// magnitudes, and the run's direction: the heading held by the encoders with Ed, so a forward
   /// run's duties are those that drive the robot straight, whatever the floor tags say (0: not
-  /// recorded).
+  /// recorded). At two speeds, the duties held over the slow window (StraightRunWindows).
   double mean_left_duty = 0.0;
   double mean_right_duty = 0.0;
   /// A forward run at two speeds (StraightRunWindows): the same over its fast part, and
   /// mean_left/right_duty over its slow part (0: one speed).
   double fast_left_duty = 0.0;
   double fast_right_duty = 0.0;
+  /// How far the left wheel fell behind the right one over each window, as a share of the right
+  /// wheel's pulses there (PulseLine::leftLag by the run's own Ed): 0.17 % of the wheels' speed
+  /// ratio is 3 cm of drift in 2 m. straightRunFit takes the duties level by it (0: not
+  /// recorded).
+  double slow_left_lag = 0.0;
+  double fast_left_lag = 0.0;
   bool forward = true;
 };
 
-/// Where a straight run's duties are averaged, as shares of its right wheel's pulses: past the
-/// start's ramp and transient and, at two speeds, past the change of speed.
+/// Where a straight run's duties are taken, as shares of its right wheel's pulses: past the
+/// start's ramp and transient and, at two speeds, past the change of speed. At two speeds each
+/// speed's duties are the mean the heading hold commanded over a settling stretch, then held
+/// fixed over the window while the wheels' pulses give the speed ratio those duties make: a
+/// closed loop's mean duty is as far from the level one as its dithering over the window's ends
+/// (a few 0.1 % of the ratio on the drawn robots, through 30-100 ms of command and reading
+/// latency), while fixed duties and the slope of one wheel's pulses on the other's leave under
+/// 0.05 %.
 struct StraightRunWindows {
   double begin = 0.5;  ///< one speed: the second half, from here to the run's end
-  /// Two speeds: the slow part (in the first half) and the fast one (from here to the end).
-  double slow_begin = 0.2, slow_end = 0.5, fast_begin = 0.7;
+  /// Two speeds: the slow part (in the first half) and the fast one (from here to the end), each
+  /// after its settling stretch.
+  double slow_settle = 0.1, slow_begin = 0.2, slow_end = 0.5;
+  double fast_settle = 0.62, fast_begin = 0.72;
+};
+
+/// A window's left pulse counts against its right ones, for the left wheel's lag
+/// (StraightRun::slow_left_lag): the least-squares slope of the counts takes out their ticks'
+/// quantisation, which the window's two ends alone leave at about a pulse (0.17 % of 600).
+struct PulseLine {
+  double n = 0, r = 0, l = 0, rr = 0, rl = 0;
+  void add(double left_pulses, double right_pulses);
+  /// 1 − slope/Ed: how far the left wheel fell behind as a share of the right one's pulses; 0
+  /// with fewer than three readings or no right pulses.
+  double leftLag(double Ed) const;
 };
 
 struct StraightRunOptions {

@@ -19,8 +19,10 @@
 //                        true start-to-end length (setStraightLength: measured by a person, or in
 //                        the simulator by a ground-truth helper); runs whose heading strayed
 //                        beyond the threshold are rejected and repeated, up to a bound (§2.3).
-//                        A forward run goes faster over its second half: the duties that held it
-//                        straight at the two speeds give the trim and deadbands (straightRunFit).
+//                        A forward run goes faster over its second half: at each speed the
+//                        duties are held at the heading hold's mean over a settling stretch while
+//                        the pulses' slope measures how level they drive the wheels; the two
+//                        speeds give the trim and deadbands (straightRunFit).
 // The result is computeUah's. The caller feeds time, encoder readings and range readings and
 // commands the duties update() returns; a motion's clock starts at the first update() that returns
 // its duties. Failures throw CalibrationError (and the run stays failed with zero duties).
@@ -363,6 +365,13 @@ class UahRun : public Stage {
   double fast_duty_sum_[2] = {0, 0};  ///< left, right over the window at the fast rate
   int fast_duty_count_ = 0;
   double fast_since_s_ = -1;  ///< when the forward run went over to the fast rate (<0: not yet)
+  /// Each window's left pulses against its right ones (from the run's start).
+  PulseLine slow_pulses_, fast_pulses_;
+  /// Duties (left, right) summed over the settling stretch before each window, and held there.
+  double settle_sum_[2] = {0, 0};
+  int settle_count_ = 0;
+  double held_[2] = {0, 0};
+  bool holding_ = false;
   std::vector<StraightRun> straight_runs_;
 };
 

@@ -263,6 +263,17 @@ void StraightRunOptions::validate() const {
   }
 }
 
+void PulseLine::add(double left_pulses, double right_pulses) {
+  n += 1, r += right_pulses, l += left_pulses;
+  rr += right_pulses * right_pulses, rl += right_pulses * left_pulses;
+}
+
+double PulseLine::leftLag(double Ed) const {
+  const double var = n * rr - r * r;
+  if (n < 3 || !(var > 0) || !(Ed > 0)) return 0.0;
+  return 1 - (n * rl - r * l) / var / Ed;
+}
+
 MmPerPulseEstimate estimateMmPerPulse(const std::vector<StraightRun>& runs,
                                       const StraightRunOptions& options) {
   options.validate();

@@ -457,11 +457,24 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     double slow_left = 0, slow_right = 0, fast_left = 0, fast_right = 0;
     meanDuties(slow_from_s, slow_to_s, slow_left, slow_right);
     meanDuties(fast_from_s, m.stop_s, fast_left, fast_right);
+    // The left wheel's lag over a window, from the encoder readings in it (PulseLine).
+    auto lagOver = [&](double from_s, double to_s) {
+      PulseLine line;
+      for (const Sample& s : history) {
+        if (s.stamp_s >= from_s && s.stamp_s < to_s)
+          line.add(std::abs(s.left - start.left), std::abs(s.right - start.right));
+      }
+      return line.leftLag(Ed);
+    };
     if (run.forward && slow_right > 0 && fast_right > kTwoSpeedsDutyRatio * slow_right) {
       run.mean_left_duty = slow_left, run.mean_right_duty = slow_right;
       run.fast_left_duty = fast_left, run.fast_right_duty = fast_right;
+      run.slow_left_lag = lagOver(slow_from_s, slow_to_s);
+      run.fast_left_lag = lagOver(fast_from_s, m.stop_s);
     } else {
-      meanDuties(stampAt(windows.begin), m.stop_s, run.mean_left_duty, run.mean_right_duty);
+      const double from_s = stampAt(windows.begin);
+      meanDuties(from_s, m.stop_s, run.mean_left_duty, run.mean_right_duty);
+      run.slow_left_lag = lagOver(from_s, m.stop_s);
     }
     const double odometry_m = run.right_pulses * o.nominal.right_m_per_pulse;
     if (std::abs(length_m / odometry_m - 1) > o.max_length_mismatch) {

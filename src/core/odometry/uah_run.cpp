@@ -275,6 +275,10 @@ void UahRun::startStraight(double now_s) {
   fast_duty_sum_[0] = fast_duty_sum_[1] = 0;
   fast_duty_count_ = 0;
   fast_since_s_ = -1;
+  slow_pulses_ = fast_pulses_ = PulseLine();
+  settle_sum_[0] = settle_sum_[1] = 0;
+  settle_count_ = 0;
+  holding_ = false;
   // Both wheels start at the mean duty the spin settled at (near their equal-rate duty), the right
   // one then follows the straight run's rate, reached over straight_ramp_s (a soft start keeps
   // the heading transient small).
@@ -507,10 +511,12 @@ void UahRun::setStraightLength(double length_m) {
   if (run_duty_count_ > 0) {
     run.mean_left_duty = run_duty_sum_[0] / run_duty_count_;
     run.mean_right_duty = run_duty_sum_[1] / run_duty_count_;
+    run.slow_left_lag = slow_pulses_.leftLag(Ed_);
   }
   if (fast_duty_count_ > 0) {
     run.fast_left_duty = fast_duty_sum_[0] / fast_duty_count_;
     run.fast_right_duty = fast_duty_sum_[1] / fast_duty_count_;
+    run.fast_left_lag = fast_pulses_.leftLag(Ed_);
   }
   run.forward = straight_dir_ > 0;
   straight_runs_.push_back(run);
@@ -672,24 +678,48 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   follow(1, rate, dt_s);
   checkStall(0, now_s);
   checkStall(1, now_s);
-  // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
-  // the wheels' differences (deadbands, motor gains, Ed).
-  const double error = dr - dl / Ed_;
-  heading_integral_ += error * dt_s;
-  const double left = std::clamp(drive_.duty(1) + options_.heading_gain_duty_per_pulse * error +
-                                     options_.heading_integral_duty_per_pulse_s * heading_integral_,
-                                 0.0, options_.max_duty);
-  duties_ = {straight_dir_ * left, straight_dir_ * drive_.duty(1)};
-  // The duties that held it straight, past the ramps and their transients.
   const double share = dr / target_pulses;
-  if (two_speeds ? share >= windows.slow_begin && share < windows.slow_end
-                 : share >= windows.begin) {
+  const bool slow_window = share >= windows.slow_begin && share < windows.slow_end;
+  const bool fast_window = share >= windows.fast_begin;
+  const bool hold = two_speeds && (slow_window || fast_window);
+  // The left duty moves with the right one; the PI on the heading error N_R − N_L/Ed makes up
+  // the wheels' differences (deadbands, motor gains, Ed). Over a window at two speeds both duties
+  // are held at the settling stretch's means (the integral kept as it was).
+  const double error = dr - dl / Ed_;
+  if (!hold) heading_integral_ += error * dt_s;
+  double left = std::clamp(drive_.duty(1) + options_.heading_gain_duty_per_pulse * error +
+                               options_.heading_integral_duty_per_pulse_s * heading_integral_,
+                           0.0, options_.max_duty);
+  double right = drive_.duty(1);
+  if (hold) {
+    if (!holding_) {
+      if (settle_count_ > 0) {
+        held_[0] = settle_sum_[0] / settle_count_, held_[1] = settle_sum_[1] / settle_count_;
+      } else {
+        held_[0] = left, held_[1] = right;
+      }
+      holding_ = true;
+    }
+    left = held_[0], right = held_[1];
+  } else {
+    if (holding_) settle_sum_[0] = settle_sum_[1] = 0, settle_count_ = 0;
+    holding_ = false;
+    if (two_speeds && ((share >= windows.slow_settle && share < windows.slow_begin) ||
+                       (share >= windows.fast_settle && share < windows.fast_begin))) {
+      settle_sum_[0] += left, settle_sum_[1] += right, ++settle_count_;
+    }
+  }
+  duties_ = {straight_dir_ * left, straight_dir_ * right};
+  // The duties that held it straight, past the ramps and their transients.
+  if (two_speeds ? slow_window : share >= windows.begin) {
+    slow_pulses_.add(dl, dr);
     run_duty_sum_[0] += left;
-    run_duty_sum_[1] += drive_.duty(1);
+    run_duty_sum_[1] += right;
     ++run_duty_count_;
-  } else if (two_speeds && share >= windows.fast_begin) {
+  } else if (two_speeds && fast_window) {
+    fast_pulses_.add(dl, dr);
     fast_duty_sum_[0] += left;
-    fast_duty_sum_[1] += drive_.duty(1);
+    fast_duty_sum_[1] += right;
     ++fast_duty_count_;
   }
   return duties_;
@@ -771,11 +801,22 @@ StageResult writeUahStageFile(const StageOutput& output, const UahResult& result
   return r;
 }
 
-StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
-                              const std::vector<int>& accepted,
-                              const wheels::KinematicsParams& params) {
+namespace {
+
+/// The duty that would have held the wheel level with the other one where `duty` left it behind
+/// by `lag` (a share of the other's pulses), through the deadband `offset`: the wheel's speed goes
+/// with duty − offset.
+double levelDuty(double duty, double lag, double offset) {
+  return lag < 1 ? offset + (duty - offset) / (1 - lag) : duty;
+}
+
+/// The two speeds' fit (straightRunFit) with each run's left duties taken level by its lags
+/// through the deadbands `left_offset` (the left wheel's) and `params`' gain and mean deadband.
+StraightRunFit fitTwoSpeeds(const std::vector<StraightRun>& runs,
+                            const std::vector<int>& accepted,
+                            const wheels::KinematicsParams& params, double left_offset) {
   StraightRunFit fit;
-  fit.trim = straightRunTrim(runs, accepted, params);
+  fit.trim = std::numeric_limits<double>::quiet_NaN();
   fit.deadband_left = params.deadband_left, fit.deadband_right = params.deadband_right;
   // The two speeds' mean duty pairs (slow: l1, r1; fast: l2, r2) over the forward runs.
   double l1 = 0, r1 = 0, l2 = 0, r2 = 0;
@@ -786,8 +827,9 @@ StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
     if (!r.forward || !(r.mean_left_duty > 0) || !(r.mean_right_duty > 0) ||
         !(r.fast_left_duty > 0) || !(r.fast_right_duty > 0))
       continue;
-    l1 += r.mean_left_duty, r1 += r.mean_right_duty, ++n;
-    l2 += r.fast_left_duty, r2 += r.fast_right_duty;
+    l1 += levelDuty(r.mean_left_duty, r.slow_left_lag, left_offset), r1 += r.mean_right_duty;
+    l2 += levelDuty(r.fast_left_duty, r.fast_left_lag, left_offset), r2 += r.fast_right_duty;
+    ++n;
   }
   if (n == 0 || !(l2 - l1 > 0)) return fit;
   // Equal wheel speeds through the deadband compensation d = o + (1 − o)·u put the duty pairs on
@@ -806,6 +848,22 @@ StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
   return fit;
 }
 
+}  // namespace
+
+StraightRunFit straightRunFit(const std::vector<StraightRun>& runs,
+                              const std::vector<int>& accepted,
+                              const wheels::KinematicsParams& params) {
+  // The lags are taken out through the file's left deadband, then through the one fitted (a
+  // deadband 0.01 off moves a duty 0.3 % level by 3e-5).
+  StraightRunFit fit = fitTwoSpeeds(runs, accepted, params, params.deadband_left);
+  if (fit.two_speeds) {
+    const StraightRunFit again = fitTwoSpeeds(runs, accepted, params, fit.deadband_left);
+    if (again.two_speeds) fit = again;
+  }
+  if (!fit.two_speeds) fit.trim = straightRunTrim(runs, accepted, params);
+  return fit;
+}
+
 double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<int>& accepted,
                        const wheels::KinematicsParams& params) {
   double left = 0, right = 0;
@@ -814,7 +872,8 @@ double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<i
     if (i < 0 || i >= static_cast<int>(runs.size())) continue;
     const StraightRun& r = runs[static_cast<size_t>(i)];
     if (!r.forward || !(r.mean_left_duty > 0) || !(r.mean_right_duty > 0)) continue;
-    left += r.mean_left_duty, right += r.mean_right_duty, ++n;
+    left += levelDuty(r.mean_left_duty, r.slow_left_lag, params.deadband_left);
+    right += r.mean_right_duty, ++n;
   }
   if (n == 0) return std::numeric_limits<double>::quiet_NaN();
   const double u_left = wheels::removeDeadband(left / n, params.deadband_left);

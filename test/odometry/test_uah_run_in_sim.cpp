@@ -784,7 +784,7 @@ sim::RobotConfig drawnRobot(std::mt19937_64& rng) {
 // into the run (the battery sagged by then) from deadbands the wheel stage left 0.0008 off in
 // opposite ways: the straight runs' duties held at two speeds, levelled by their pulses' slopes,
 // drive every robot within the bounds at 0.15, 0.25 and 0.4 m/s (the truth's drift over 2 m).
-// Held: 1.6 cm at worst. With the heading hold's mean duties over the same windows instead, up to
+// Held: 2.0 cm at worst. With the heading hold's mean duties over the same windows instead, up to
 // 2.8 cm, and one robot 2.7 cm at 0.25 m/s (its bound is 2).
 TEST(StraightRunFit, HeldDutiesDriveDrawnRobotsStraight) {
   std::mt19937_64 draw(2024);

@@ -138,6 +138,10 @@ struct StraightRunWindows {
   /// after its settling stretch.
   double slow_settle = 0.1, slow_begin = 0.2, slow_end = 0.5;
   double fast_settle = 0.62, fast_begin = 0.72;
+  /// The pulses' slope is taken from this long after the duties were fixed [s]: the wheels reach
+  /// their speeds for them one command and reading latency and a motor's lag later (about 0.1 s
+  /// on a robot, more on a loaded computer).
+  double hold_settle_s = 0.5;
 };
 
 /// A window's left pulse counts against its right ones, for the left wheel's lag

@@ -80,6 +80,13 @@ struct UahRunOptions : EncoderDriveOptions {
   /// robot.yaml).
   double heading_gain_duty_per_pulse = 0.005;
   double heading_integral_duty_per_pulse_s = 0.015;
+  /// Over a window at two speeds (StraightRunWindows) the duties are held at the settling
+  /// stretch's means, and the left one moves only by this gain on the heading error's change
+  /// since the hold began [duty/pulse]: slowly enough that each duty is paired with the speed it
+  /// made, and enough that a settling mean a few % off does not take the heading out of its bound
+  /// (held fixed, 3 of 13 drawn robots whose links were 50 ms late strayed over 5° or into a wall;
+  /// with 0.001, 1 of 20, which also failed with the heading hold throughout).
+  double held_heading_gain_duty_per_pulse = 0.001;
   /// A given length this far from the one the nominal pulses say means a cut-short run or a wrong
   /// measurement [fraction].
   double max_length_mismatch = 0.25;
@@ -372,6 +379,8 @@ class UahRun : public Stage {
   int settle_count_ = 0;
   double held_[2] = {0, 0};
   bool holding_ = false;
+  double hold_since_s_ = 0;  ///< when the duties were fixed
+  double hold_error_ = 0;  ///< the heading error when they were
   std::vector<StraightRun> straight_runs_;
 };
 

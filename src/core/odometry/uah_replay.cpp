@@ -452,8 +452,11 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
       }
       if (count > 0) left = l / count, right = r / count;
     };
-    const double slow_from_s = stampAt(windows.slow_begin), slow_to_s = stampAt(windows.slow_end);
-    const double fast_from_s = stampAt(windows.fast_begin);
+    // At two speeds the duties were held from the window's start, the pulses' slope taken from
+    // hold_settle_s later, as the live run takes both.
+    const double slow_from_s = stampAt(windows.slow_begin) + windows.hold_settle_s;
+    const double slow_to_s = stampAt(windows.slow_end);
+    const double fast_from_s = stampAt(windows.fast_begin) + windows.hold_settle_s;
     double slow_left = 0, slow_right = 0, fast_left = 0, fast_right = 0;
     meanDuties(slow_from_s, slow_to_s, slow_left, slow_right);
     meanDuties(fast_from_s, m.stop_s, fast_left, fast_right);

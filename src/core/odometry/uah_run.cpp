@@ -66,6 +66,8 @@ void UahRunOptions::validate() const {
   checkConfig(heading_gain_duty_per_pulse >= 0, "heading_gain_duty_per_pulse", "must be >= 0");
   checkConfig(heading_integral_duty_per_pulse_s >= 0, "heading_integral_duty_per_pulse_s",
               "must be >= 0");
+  checkConfig(held_heading_gain_duty_per_pulse >= 0, "held_heading_gain_duty_per_pulse",
+              "must be >= 0");
   checkConfig(straight_ramp_s > 0, "straight_ramp_s", "must be > 0 [s]");
   checkConfig(straight_fast_rate_pulses_per_s == 0 ||
                   straight_fast_rate_pulses_per_s > 1.5 * straight_rate_pulses_per_s,
@@ -699,8 +701,12 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
         held_[0] = left, held_[1] = right;
       }
       holding_ = true;
+      hold_since_s_ = now_s;
+      hold_error_ = error;
     }
-    left = held_[0], right = held_[1];
+    left = std::clamp(held_[0] + options_.held_heading_gain_duty_per_pulse * (error - hold_error_),
+                      0.0, options_.max_duty);
+    right = held_[1];
   } else {
     if (holding_) settle_sum_[0] = settle_sum_[1] = 0, settle_count_ = 0;
     holding_ = false;
@@ -711,12 +717,14 @@ WheelDuties UahRun::updateStraight(double now_s, double dt_s) {
   }
   duties_ = {straight_dir_ * left, straight_dir_ * right};
   // The duties that held it straight, past the ramps and their transients.
-  if (two_speeds ? slow_window : share >= windows.begin) {
+  // Held, from hold_settle_s on: the wheels have reached the speeds of the duties by then.
+  const bool settled = !hold || now_s - hold_since_s_ >= windows.hold_settle_s;
+  if (settled && (two_speeds ? slow_window : share >= windows.begin)) {
     slow_pulses_.add(dl, dr);
     run_duty_sum_[0] += left;
     run_duty_sum_[1] += right;
     ++run_duty_count_;
-  } else if (two_speeds && fast_window) {
+  } else if (settled && two_speeds && fast_window) {
     fast_pulses_.add(dl, dr);
     fast_duty_sum_[0] += left;
     fast_duty_sum_[1] += right;

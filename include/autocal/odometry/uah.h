@@ -117,8 +117,9 @@ struct StraightRun {
   double fast_right_duty = 0.0;
   /// How far the left wheel fell behind the right one over each window, as a share of the right
   /// wheel's pulses there (PulseLine::leftLag by the run's own Ed): 0.17 % of the wheels' speed
-  /// ratio is 3 cm of drift in 2 m. straightRunFit takes the duties level by it (0: not
-  /// recorded).
+  /// ratio is 3 cm of drift in 2 m. At two speeds straightRunFit takes the held duties level by
+  /// it; at one speed (the heading hold throughout) it is recorded only: there the mean duty errs
+  /// by the loop's dithering more than by the lag (0: not recorded).
   double slow_left_lag = 0.0;
   double fast_left_lag = 0.0;
   bool forward = true;

@@ -102,9 +102,10 @@ struct UahRunOptions : EncoderDriveOptions {
   /// (straightRunFit), when its trim differs from theirs by more than this (0: always). The wheel
   /// stage takes its trim from the floor tags' headings, and tags laid a degree or two turned bias
   /// it (11 of 20 drawn robots drifted over 3 cm in 2 m with it); the straight runs hold the
-  /// heading by the encoders and Ed, which no tag enters. At two speeds they drove 20 drawn robots
-  /// within 0.4-3.9 cm (3 seeds of the core harness; at one speed 0.2-8.2 cm, through deadbands a
-  /// few 0.0001 off). Negative: the file is never touched.
+  /// heading by the encoders and Ed, which no tag enters. At two speeds, their duties held and
+  /// levelled (StraightRunWindows), they drove the robustness matrix's 20 drawn robots within
+  /// 3.6 cm in the core harness (at one speed up to 8.2 cm, through deadbands a few 0.0001 off).
+  /// Negative: the file is never touched.
   double max_trim_disagreement = 0.0;
   /// §2.1 round detection (expected_pulses_per_round is set per experiment from `nominal`).
   RoundDetectionOptions detection;

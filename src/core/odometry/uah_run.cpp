@@ -880,8 +880,7 @@ double straightRunTrim(const std::vector<StraightRun>& runs, const std::vector<i
     if (i < 0 || i >= static_cast<int>(runs.size())) continue;
     const StraightRun& r = runs[static_cast<size_t>(i)];
     if (!r.forward || !(r.mean_left_duty > 0) || !(r.mean_right_duty > 0)) continue;
-    left += levelDuty(r.mean_left_duty, r.slow_left_lag, params.deadband_left);
-    right += r.mean_right_duty, ++n;
+    left += r.mean_left_duty, right += r.mean_right_duty, ++n;
   }
   if (n == 0) return std::numeric_limits<double>::quiet_NaN();
   const double u_left = wheels::removeDeadband(left / n, params.deadband_left);

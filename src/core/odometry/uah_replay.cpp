@@ -437,9 +437,11 @@ UahReplayResult replayUah(UahRecording rec, const UahReplayOptions& options) {
     // run keeps them (straightRunFit): at one speed its second half; a forward run that went
     // faster over its second half, its slow and fast parts.
     const StraightRunWindows windows;
+    // Shares of the pulses the live run aimed at (it stops there and coasts on), as it took them.
+    const double target_pulses = o.straight_length_m / o.nominal.right_m_per_pulse;
     auto stampAt = [&](double share) {
       for (const Sample& s : history)
-        if (std::abs(s.right - start.right) >= share * run.right_pulses) return s.stamp_s;
+        if (std::abs(s.right - start.right) >= share * target_pulses) return s.stamp_s;
       return m.stop_s;
     };
     auto meanDuties = [&](double from_s, double to_s, double& left, double& right) {

@@ -51,7 +51,7 @@ struct TrimEstimatorOptions {
   /// fails. mean_of_drives 0: off.
   int mean_of_drives = 12;
   double max_mean_error = 0.0005;
-  int more_drives_for_mean = 8;
+  int more_drives_for_mean = 16;
   /// k leaving [1/(1+d), 1+d] means the estimate diverged: failure.
   double max_ratio_deviation = 0.6;
   /// Nominal wheel radius R and wheelbase L (Duckietown's defaults) [m]: their error scales every

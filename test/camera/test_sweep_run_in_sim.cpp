@@ -340,6 +340,40 @@ TEST(SweepRunInSim, MoreViewsWhereTheProjectionIsLeastSure) {
   EXPECT_NE(f.failure.find("the lower half of the image is not pinned down"), std::string::npos);
 }
 
+// The rounds' budget (refine_max_s) counts their turning and views, not the fits that judge them.
+// Here the world runs on for longer than the whole budget each time the stage judges its views, as
+// on a small computer fitting every lens model while the robot stands: the rounds still take their
+// views, and the stage passes as in MoreViewsWhereTheProjectionIsLeastSure.
+TEST(SweepRunInSim, JudgingTheViewsSpendsNoneOfTheRoundsTime) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "fleet/robot_wide.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  camera::CameraCalibrationConfig config = cameraConfigFor(world, robot);
+  config.quality_gate.max_lower_half_uncertainty_px = 0.6;
+  camera::SweepRunOptions options = runOptionsFor(robot);
+  options.sweep.min_steps = 0;
+  camera::SweepRun run(options, config);
+  test::SweepInSimOptions so;
+  so.max_sim_s = 1500;
+  bool judging = false;
+  int judged = 0;
+  so.before_update = [&](double) { judging = run.stage() == camera::SweepRunStage::kJudge; };
+  so.world_runs_on_s = [&](double) {
+    if (!judging) return 0.0;
+    ++judged;
+    return 1.5 * options.refine_max_s;
+  };
+  const test::SweepInSim r = test::runSweepInSim(robot, world, run, so);
+  std::cout << judged << " judgements, " << run.refineRounds() << " rounds, " << run.sweepViews()
+            << " views from the sweep, " << r.sharp.size() << " in all, " << r.sim_s << " s\n";
+  ASSERT_TRUE(r.swept) << r.failure;
+  ASSERT_TRUE(r.calibration_failure.empty()) << r.calibration_failure;
+  EXPECT_GE(judged, 2);
+  ASSERT_GE(run.refineRounds(), 1);
+  EXPECT_GT(static_cast<int>(r.sharp.size()), run.sweepViews());
+  EXPECT_LE(r.result.uncertainty.lower_half_worst_px,
+            config.quality_gate.max_lower_half_uncertainty_px);
+}
+
 /// The replay fed what a recording of the live run holds, in the order it holds it.
 struct ReplayTap : test::RecordingTap {
   ReplayTap(const camera::SweepRunOptions& o, const camera::CameraCalibrationConfig& c)

@@ -107,6 +107,13 @@ StageInSim runStageInSim(Stage& stage, sim::Simulation& simulation, const sim::R
       first_step = false;
       for (const WheelDuties& c : command_link.due(t)) simulation.setDuty(c.left, c.right);
       simulation.advance(control_dt);
+      const double stalled_s = options.world_runs_on_s ? options.world_runs_on_s(t) : 0.0;
+      if (stalled_s > 0) {
+        simulation.advance(stalled_s);
+        next_frame = std::max(next_frame, simulation.time_s());
+        next_encoder = std::max(next_encoder, simulation.time_s());
+        next_range = std::max(next_range, simulation.time_s());
+      }
       if (options.after_step) options.after_step(t);
     }
   } catch (const Error& e) {

@@ -48,6 +48,9 @@ struct StageInSimOptions {
   /// with the duties the update returned.
   std::function<void(double t_s)> before_update;
   std::function<void(double t_s, const WheelDuties& duties)> after_update;
+  /// After each update: how long [s] the world runs on before the next one, the commands held
+  /// and no reading taken, as while a node computes on a robot whose world does not wait.
+  std::function<double(double t_s)> world_runs_on_s;
 };
 
 struct StageInSim {

@@ -80,7 +80,8 @@ struct SweepRunOptions {
   double refine_tolerance_rad = 0.04;
   /// Steps toward one heading before its view is taken where the robot stands.
   int refine_max_steps = 30;
-  /// The rounds together may take this long [s] (within max_duration_s).
+  /// The rounds together may take this long [s] of turning and taking views (within
+  /// max_duration_s); the fits that judge them do not count.
   double refine_max_s = 120.0;
 
   /// Throws ConfigError naming the first bad key.
@@ -206,7 +207,7 @@ class SweepRun : public Stage {
   double headingChangeSinceObservation();
   /// The sweep or a round of more views ended: calibrate, and either pass, plan the next round,
   /// or fail.
-  void judgeViews(double now_s);
+  void judgeViews();
   WheelDuties refineStep(double now_s);
   /// Fails when no usable frame came for camera_timeout_s since the robot settled.
   void failWithoutUsableFrame(double now_s);
@@ -260,7 +261,8 @@ class SweepRun : public Stage {
   std::optional<ModelChoice> choice_;    ///< the last judgement of the views
   std::string sweep_refusal_;
   int refine_round_ = 0;
-  double refine_start_s_ = -1;
+  double refine_spent_s_ = 0;        ///< in the finished rounds, turning and taking views
+  double refine_round_start_s_ = -1;  ///< the current round's first step
   std::vector<ViewTarget> targets_;
   std::vector<double> refine_headings_;  ///< of the current round, in the order visited
   size_t refine_next_ = 0;

@@ -223,7 +223,7 @@ WheelDuties SweepRun::update(double now_s) {
   const WheelDuties stop{0, 0};
   if (stage_ == SweepRunStage::kFailed || stage_ == SweepRunStage::kSwept) return stop;
   if (stage_ == SweepRunStage::kJudge) {
-    judgeViews(now_s);
+    judgeViews();
     return stop;
   }
   if (!have_first_update_) {
@@ -347,7 +347,7 @@ CalibrationResult SweepRun::calibrate() const {
   return calibrateSweepViews(collector_, camera_);
 }
 
-void SweepRun::judgeViews(double now_s) {
+void SweepRun::judgeViews() {
   try {
     choice_ = chooseSweepModel(collector_, camera_);
   } catch (const CalibrationError& e) {
@@ -361,7 +361,9 @@ void SweepRun::judgeViews(double now_s) {
     sweep_refusal_ = choice_->refusals("; ");
     refine_views_before_ = static_cast<int>(calibrationViews().size());
   }
-  const bool out_of_time = refine_start_s_ >= 0 && now_s - refine_start_s_ > options_.refine_max_s;
+  // The rounds' budget counts their turning and views, not the judging: a fit of every lens model
+  // may take a small computer minutes while the robot stands still.
+  const bool out_of_time = refine_spent_s_ > options_.refine_max_s;
   if (refine_round_ < options_.refine_rounds && !out_of_time) {
     targets_ = viewTargets(choice_->result.uncertainty, choice_->result.intrinsics,
                            calibrationViews(), frame_heading_, heading_rad_);
@@ -393,7 +395,7 @@ void SweepRun::judgeViews(double now_s) {
   if (std::abs(heading_rad_ - refine_headings_.back()) <
       std::abs(heading_rad_ - refine_headings_.front()))
     std::reverse(refine_headings_.begin(), refine_headings_.end());
-  if (refine_start_s_ < 0) refine_start_s_ = now_s;
+  refine_round_start_s_ = -1;
   ++refine_round_;
   refine_next_ = 0;
   refine_steps_ = 0;
@@ -416,7 +418,10 @@ WheelDuties SweepRun::refineStep(double now_s) {
     refine_steps_ = 0;
     refine_last_remaining_ = 0;
   }
-  if (refine_next_ >= refine_headings_.size() || now_s - refine_start_s_ > options_.refine_max_s) {
+  if (refine_round_start_s_ < 0) refine_round_start_s_ = now_s;
+  const double spent_s = refine_spent_s_ + (now_s - refine_round_start_s_);
+  if (refine_next_ >= refine_headings_.size() || spent_s > options_.refine_max_s) {
+    refine_spent_s_ = spent_s;
     stage_ = SweepRunStage::kJudge;
     return stop;
   }
@@ -424,7 +429,10 @@ WheelDuties SweepRun::refineStep(double now_s) {
   const bool crossed = refine_steps_ > 0 && remaining * refine_last_remaining_ < 0;
   if (std::abs(remaining) <= options_.refine_tolerance_rad || crossed ||
       refine_steps_ >= options_.refine_max_steps) {
-    refine_grab_ = true;  // the next frame after settled_at_s_
+    // The next frame from now: the robot stood still since it settled, but a judgement may have
+    // taken longer than camera_timeout_s since then.
+    refine_grab_ = true;
+    settled_at_s_ = std::max(settled_at_s_, now_s);
     return stop;
   }
   refine_last_remaining_ = remaining;

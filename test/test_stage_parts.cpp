@@ -110,11 +110,19 @@ TEST(RunWatch, ClampsTheStepAndFailsOnTimeThenOnMissingThenOnSilentEncoders) {
   EXPECT_NEAR(w.tick(10.05), 0.05, 1e-12);
   EXPECT_DOUBLE_EQ(w.tick(11.0), 0.2);  // one late update is not one huge step
   EXPECT_DOUBLE_EQ(w.elapsedS(), 1.0);
-  // No reading yet: the stage waits until encoder_timeout_s from its start.
+  // No reading yet: the stage waits until encoder_timeout_s from its start, and for more than
+  // kSilentUpdates updates without one (one long gap is a node that was not scheduled).
   EXPECT_EQ(w.failure(11.0, e, true, 0, 3.0, "UAH run", "spin"), "");
+  EXPECT_EQ(w.tick(13.5), 0.2);
+  EXPECT_EQ(w.failure(13.5, e, true, 0, 3.0, "UAH run", "spin"), "");
+  for (int i = 0; i < RunWatch::kSilentUpdates; ++i) w.tick(13.5);
   EXPECT_EQ(w.failure(13.5, e, true, 0, 3.0, "UAH run", "spin"), "no encoder readings");
+  w.noteEncoders();
   e.add(11.0, 0, 0);
   EXPECT_EQ(w.failure(13.5, e, true, 0, 3.0, "UAH run", "spin"), "");
+  w.tick(14.5);
+  EXPECT_EQ(w.failure(14.5, e, true, 0, 3.0, "UAH run", "spin"), "");
+  for (int i = 0; i < RunWatch::kSilentUpdates; ++i) w.tick(14.5);
   EXPECT_EQ(w.failure(14.5, e, false, 0, 3.0, "UAH run", "spin"), "");  // standing: no reading due
   EXPECT_EQ(w.failure(14.5, e, true, 0, 3.0, "UAH run", "spin"),
             "the encoders went silent for 3.5 s");

@@ -66,17 +66,26 @@ class RunWatch {
   /// The last update's time [s].
   double lastS() const { return last_s_; }
 
+  /// An encoder reading arrived (whatever its stamp).
+  void noteEncoders() { updates_without_encoders_ = 0; }
+
   /// Why the run must fail at `now_s`, or empty: it ran longer than `max_duration_s` (> 0; "the
   /// <what> took longer than max_duration_s (T s) in <where>"), no encoder reading came within
   /// `encoder_timeout_s` of its start ("no encoder readings"), or, while `moving`, none came for
-  /// `encoder_timeout_s` ("the encoders went silent for T s").
+  /// `encoder_timeout_s` ("the encoders went silent for T s"). Silence is also more than
+  /// kSilentUpdates updates without a reading: a node that was not scheduled for a while (or a
+  /// simulator that ran on before the first command) sees one long gap, then the readings that
+  /// came meanwhile.
   std::string failure(double now_s, const EncoderTracker& encoders, bool moving,
                       double max_duration_s, double encoder_timeout_s, const std::string& what,
                       const std::string& where) const;
 
+  static constexpr int kSilentUpdates = 10;
+
  private:
   bool started_ = false;
   double start_s_ = 0.0, last_s_ = 0.0;
+  int updates_without_encoders_ = 0;
 };
 
 /// A wheel's duty magnitude after `dt_s` of integral control on its pulse-rate error: the robot's

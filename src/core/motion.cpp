@@ -16,6 +16,7 @@ double RunWatch::tick(double now_s, double max_step_s) {
   }
   const double dt = std::clamp(now_s - last_s_, 0.0, max_step_s);
   last_s_ = now_s;
+  ++updates_without_encoders_;
   return dt;
 }
 
@@ -26,10 +27,11 @@ std::string RunWatch::failure(double now_s, const EncoderTracker& encoders, bool
     return "the " + what + " took longer than max_duration_s (" + formatNumber(max_duration_s, 4) +
            " s) in " + where;
   }
+  const bool silent = updates_without_encoders_ > kSilentUpdates;
   if (!encoders.valid()) {
-    return now_s - start_s_ > encoder_timeout_s ? "no encoder readings" : "";
+    return silent && now_s - start_s_ > encoder_timeout_s ? "no encoder readings" : "";
   }
-  if (moving && now_s - encoders.stampS() > encoder_timeout_s)
+  if (moving && silent && now_s - encoders.stampS() > encoder_timeout_s)
     return "the encoders went silent for " + formatNumber(now_s - encoders.stampS(), 3) + " s";
   return {};
 }
@@ -66,6 +68,7 @@ EncoderDrive::EncoderDrive(const EncoderDriveOptions& options, double max_settle
 
 std::string EncoderDrive::add(double stamp_s, int left_ticks, int right_ticks,
                               EncoderTracker::Step* step) {
+  watch_.noteEncoders();
   *step = encoders_.add(stamp_s, left_ticks, right_ticks);
   if (!step->accepted || step->first) return {};
   return EncoderTracker::jump(*step, options_.max_encoder_rate_pulses_per_s,

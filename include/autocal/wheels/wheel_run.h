@@ -166,6 +166,11 @@ struct WheelRunOptions {
   /// (the jackknife over the stills) moves a floor point 0.5 m ahead by more than this [m]
   /// (extrinsics::floorSigmaM), or when too few stills give no standard deviation.
   double extrinsics_max_floor_sigma_m = 0.005;
+  /// The mount is also refused when one standard deviation of its yaw is over this [rad]: half
+  /// the 0.5 deg a ground projection may be turned, so that the yaw written is within it at two
+  /// (a robot-mode run wrote a yaw 0.67 deg off with 0.41 deg of standard deviation, its floor
+  /// point 4 mm).
+  double extrinsics_max_yaw_sigma_rad = 0.0044;
   extrinsics::TagMountOptions extrinsics;
 
   double camera_timeout_s = 5.0;

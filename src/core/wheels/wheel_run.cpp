@@ -65,6 +65,8 @@ void WheelRunOptions::validate() const {
   }
   if (!(extrinsics_max_floor_sigma_m > 0))
     throw ConfigError("extrinsics_max_floor_sigma_m: must be > 0 [m]");
+  if (!(extrinsics_max_yaw_sigma_rad > 0))
+    throw ConfigError("extrinsics_max_yaw_sigma_rad: must be > 0 [rad]");
   if (extrinsics_spins > 0) extrinsics.validate();
   detector.validate();
   heading.validate();
@@ -440,6 +442,13 @@ void WheelRun::finishExtrinsics() {
           formatNumber(1e3 * options_.extrinsics_max_floor_sigma_m, 3) +
           " mm: the stills disagree (the straight hops' yaws spread " + deg(x.yaw_spread_rad) +
           "; a hop that did not drive straight, or a tag that moved)");
+    }
+    if (x.sigma.yaw_rad > options_.extrinsics_max_yaw_sigma_rad) {
+      throw CalibrationError(
+          "the camera's yaw is uncertain: one standard deviation of it is " +
+          deg(x.sigma.yaw_rad) + ", over extrinsics_max_yaw_sigma_rad " +
+          deg(options_.extrinsics_max_yaw_sigma_rad) + " (the straight hops' yaws spread " +
+          deg(x.yaw_spread_rad) + "; a hop that did not drive straight, or a tag that moved)");
     }
   } catch (const Error& e) {
     extrinsics_failure_ = e.what();

@@ -85,6 +85,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("extrinsics_drives", r.extrinsics_drives);
   p.get("extrinsics_min_hops", r.extrinsics_min_hops);
   p.get("extrinsics_max_floor_sigma_m", r.extrinsics_max_floor_sigma_m);
+  p.get("extrinsics_max_yaw_sigma_rad", r.extrinsics_max_yaw_sigma_rad);
   o.validate();
   // The output folders, before the robot moves (the files are written after the last drive).
   checkWritableFolder(std::filesystem::path(kinematicsPath(o.stage.calibration_root, o.stage.veh))

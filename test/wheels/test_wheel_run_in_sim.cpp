@@ -395,6 +395,23 @@ TEST(WheelRunMountInSim, RealRobotMountIsRightOrRefusedByItsUncertainty) {
   EXPECT_NEAR(x->mount.yaw_rad, robot.camera.yaw_rad, 0.5 * M_PI / 180);
 }
 
+// A mount whose yaw is less sure than extrinsics_max_yaw_sigma_rad is refused with its reason, the
+// kinematics written as usual: here the ideal robot's own yaw uncertainty (0.02-0.13 deg) against
+// a limit a thousand times tighter than the default.
+TEST(WheelRunMountInSim, AYawLessSureThanTheLimitIsRefused) {
+  const sim::RobotConfig robot = robotConfig("robot_ideal.yaml");
+  wheels::WheelRunOptions o = optionsFor(robot, robot.deadband + 0.007);
+  o.extrinsics_spins = 4;
+  o.extrinsics_max_yaw_sigma_rad = 0.0044e-3;
+  wheels::WheelRun run(o, robot.camera.truth);
+  const test::WheelsInSim r = test::runWheelsInSim(robot, defaultWorld(), run, {});
+  ASSERT_TRUE(r.done) << r.failure;
+  EXPECT_EQ(run.extrinsicsResult(), nullptr);
+  EXPECT_NE(run.extrinsicsFailure().find("the camera's yaw is uncertain"), std::string::npos)
+      << run.extrinsicsFailure();
+  EXPECT_LE(sim::straightDriftM(robot, r.result, 0.25), 0.02);
+}
+
 // The hops back are driven with the trim fitted forward, after a reversal: where the wheels differ
 // backward (gains) and break away at duties 0.015 apart, each hop back turns by a degree or more,
 // much of it at its start, and its chord is not at half its turn. The yaw comes from the hops

@@ -35,7 +35,12 @@ struct Recorded {
   std::vector<extrinsics::StillPair> pairs;
 };
 
-Recorded record(const sim::RobotConfig& robot, uint64_t noise_seed = 11) {
+/// The motions of record(): a drive forward and one back; or short hops forward, the stage's
+/// (the last turning, its right wheel faster).
+enum class Drives { kLong, kHops };
+
+Recorded record(const sim::RobotConfig& robot, uint64_t noise_seed = 11,
+                Drives drives = Drives::kLong) {
   sim::WorldConfig world = sim::loadWorldConfig(kConfigDir + "world.yaml");
   world.robot_start = {0.0, 0.0, M_PI};  // facing the tag strip
   sim::Simulation simulation(robot, world, sim::SimulationOptions());
@@ -80,6 +85,12 @@ Recorded record(const sim::RobotConfig& robot, uint64_t noise_seed = 11) {
   move(-0.16, 0.16, 0.3, M::kSpin);
   move(0.16, -0.16, 0.6, M::kSpin);
   move(-0.16, 0.16, 0.3, M::kSpin);
+  if (drives == Drives::kHops) {
+    // 0.12 m each; 0.304 on the right wheel drives robot_ideal.yaml's wheels straight.
+    for (int hop = 0; hop < 4; ++hop) move(0.3, 0.304, 0.6, M::kForward);
+    move(0.27, 0.34, 0.6, M::kForward);
+    return out;
+  }
   move(0.3, 0.3, 1.0, M::kForward);
   move(-0.3, -0.3, 1.0, M::kBackward);
   move(0.16, -0.16, 0.3, M::kSpin);
@@ -160,6 +171,27 @@ TEST(TagMount, StraightOnlyTakesTheYawFromTheDrivesKnownToBeStraightAlone) {
   }
   o.min_straight = 1;
   EXPECT_EQ(extrinsics::mountFromTags(rec.stills, pairs, o).straight, 1);
+}
+
+// A hop the tags say turned (here by degrees, its right wheel faster) gives the yaw only through
+// its measured turn, whose error the tags' lever multiplies: it counts only where too few hops
+// stayed straight.
+TEST(TagMount, AHopThatTurnedCountsOnlyWhereTooFewStayedStraight) {
+  const sim::RobotConfig robot = mountNumber(0);
+  const Recorded rec = record(robot, 11, Drives::kHops);
+  std::vector<extrinsics::StillPair> pairs = rec.pairs;
+  for (auto& p : pairs) p.straight = p.motion == extrinsics::StillMotion::kForward;
+  extrinsics::TagMountOptions o;
+  o.straight_only = true;
+  o.min_straight = 3;
+  const extrinsics::TagMountResult kept = extrinsics::mountFromTags(rec.stills, pairs, o);
+  std::printf("hops taken as straight %d, yaw %.3f deg (truth %.3f), sigma %.3f deg\n",
+              kept.straight, kept.mount.yaw_rad * 180 / M_PI, robot.camera.yaw_rad * 180 / M_PI,
+              kept.sigma.yaw_rad * 180 / M_PI);
+  EXPECT_EQ(kept.straight, 4);
+  EXPECT_NEAR(kept.mount.yaw_rad, robot.camera.yaw_rad, 0.5 * M_PI / 180);
+  o.min_straight = 5;
+  EXPECT_EQ(extrinsics::mountFromTags(rec.stills, pairs, o).straight, 5);
 }
 
 }  // namespace

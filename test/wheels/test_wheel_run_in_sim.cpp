@@ -357,7 +357,7 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * deg);
   // The yaw from the stage's own short hops forward, each with a tag in view before and after,
   // but the first (it takes up the gearbox play the turns left).
-  EXPECT_EQ(x.straight, o.extrinsics_drives / 2 - 1);
+  EXPECT_EQ(x.straight, o.extrinsics_drives - 1);
   // The stated uncertainty says the targets hold.
   ASSERT_TRUE(x.has_sigma);
   EXPECT_LT(x.sigma.height_m, 0.002);
@@ -426,6 +426,8 @@ TEST(WheelRunMountInSim, HopsBackThatCurveGiveNoYaw) {
   robot.backlash_rad = 0.01;
   wheels::WheelRunOptions o = optionsFor(robot, robot.breakaway_duty_left + 0.01);
   o.extrinsics_spins = 4;
+  o.extrinsics_drives = 5;
+  o.extrinsics_drives_back = 5;
   wheels::WheelRun run(o, robot.camera.truth);
   const test::WheelsInSim r = test::runWheelsInSim(robot, defaultWorld(), run, {});
   ASSERT_TRUE(r.done) << r.failure;
@@ -513,7 +515,7 @@ TEST(WheelRunOptions, ExtrinsicsMinHopsWithinTheHopsForward) {
   wheels::WheelRunOptions o;
   o.extrinsics_spins = 4;
   EXPECT_NO_THROW(o.validate());
-  o.extrinsics_min_hops = o.extrinsics_drives / 2;
+  o.extrinsics_min_hops = o.extrinsics_drives;
   try {
     o.validate();
     FAIL() << "no error";

@@ -60,7 +60,9 @@ struct TagMountOptions {
   /// degrees as one wheel starts late (static friction, gearbox play, late commands), and the
   /// camera's yaw from such a hop needs the turn; below it, the tags' angles are noise. For a hop
   /// whose stills share two tags or more; one tag's angle alone is noisier, and a turn it sees
-  /// counts from √2 times this.
+  /// counts from √2 times this. A hop that turned gives the yaw through its measured turn, whose
+  /// error the tags' lever multiplies: it counts only where fewer than min_straight hops stayed
+  /// within this.
   double max_straight_turn_rad = 0.01;
   /// The turn per metre driven forward [rad/m, counter-clockwise] that a drive known to be
   /// straight is taken to have where the tags see none above max_straight_turn_rad: 0 = none. A

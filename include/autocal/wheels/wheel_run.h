@@ -150,14 +150,19 @@ struct WheelRunOptions {
 
   /// The camera's mount from the floor tags (extrinsics::mountFromTags): after the trim converged
   /// and before leaving, turn on the spot this many times between stills (by extrinsics_spin_rad
-  /// towards the side the tags are on and back, alternately), then drive extrinsics_drives / 2
-  /// hops of extrinsics_drive_m straight forward and as many back (short enough that a tag stays
-  /// in view), and fit the mount to the tags of every still of the stage (the hops forward but the
-  /// first give the yaw, the turns the camera's place). 0 spins: no extrinsics.
+  /// towards the side the tags are on and back, alternately), align with the tag line again
+  /// (the turns' errors add up to degrees, and hops that run off the line lose their tags), then
+  /// drive extrinsics_drives hops of extrinsics_drive_m straight forward (short enough that a tag
+  /// stays in view) and extrinsics_drives_back back, and fit the mount to the tags of every still
+  /// of the stage (the hops forward but the first give the yaw, the turns the camera's place).
+  /// The hops back give only their stills: a robot's wheels differ backward, and hops back curve
+  /// (by 1-6 deg each on the robustness draws); the robot leaves forward from where the hops end.
+  /// 0 spins: no extrinsics.
   int extrinsics_spins = 0;
   double extrinsics_spin_rad = 0.3;
   double extrinsics_drive_m = 0.12;
-  int extrinsics_drives = 10;  ///< half of them forward, then as many back
+  int extrinsics_drives = 8;
+  int extrinsics_drives_back = 0;
   /// Hops forward (but the first) with a tag seen before and after that the yaw needs; fewer and
   /// the mount is refused. With hops, the yaw comes from these alone
   /// (TagMountOptions::straight_only); without (extrinsics_drive_m 0), from the iteration's drives.
@@ -414,6 +419,7 @@ class WheelRun : public Stage {
   enum class SinceStill { kNone, kForward, kBackward, kSpin };
   SinceStill since_still_ = SinceStill::kNone;
   int spins_done_ = 0;
+  bool aligned_for_hops_ = false;
   int extrinsics_drives_done_ = 0;
   // The alignment's last heading (NaN before its first).
   double align_prev_heading_rad_ = std::numeric_limits<double>::quiet_NaN();

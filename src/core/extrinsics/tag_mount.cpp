@@ -131,9 +131,11 @@ FloorPlane fitFloor(const std::vector<TagStill>& stills) {
   return f;
 }
 
-/// The mount from every still and motion (the estimate mountFromTags reports).
+/// The mount from every still and motion (the estimate mountFromTags reports). Drives flagged
+/// straight that the tags say turned give the yaw only with_turned.
 TagMountResult solveMount(const std::vector<TagStill>& all_stills,
-                          const std::vector<StillPair>& pairs, const TagMountOptions& options) {
+                          const std::vector<StillPair>& pairs, const TagMountOptions& options,
+                          bool with_turned) {
   TagMountResult out;
   FloorPlane floor = fitFloor(all_stills);
   // A sighting far off the plane the others make (a tag pose PnP got wrong, a tag not on the
@@ -186,6 +188,7 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
   std::vector<ViewMotion> spins;
   std::vector<std::pair<ViewMotion, bool>> drives;           // and whether it went forward
   std::vector<std::pair<ViewMotion, bool>> straight_drives;  // those known to be straight
+  std::vector<std::pair<ViewMotion, bool>> turned_drives;    // those that turned all the same
   for (const StillPair& p : pairs) {
     if (p.before < 0 || p.after < 0 || p.before >= static_cast<int>(stills.size()) ||
         p.after >= static_cast<int>(stills.size()))
@@ -201,20 +204,24 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
         // Driven with the calibrated trim: straight, and a small turn is better taken as none
         // than from the tags' angles (a few 0.1 deg off, and a tag 0.35 m ahead moves the shift
         // by 6 mm per degree). A larger one is the hop's own (see max_straight_turn_rad).
-        straight_drives.push_back({v, p.motion == StillMotion::kForward});
         // One tag's angle is the noisier: a turn seen by one tag alone counts from √2 times the
         // threshold (the mean of two tags' angles has 1/√2 of one's noise).
         const double threshold = options.max_straight_turn_rad * (v.tags == 1 ? std::sqrt(2.0) : 1.0);
         if (std::abs(v.turn) <= threshold) {
           // The turn the trim they were driven with leaves (none, unless told).
-          const double turn = options.straight_turn_per_m * v.shift_straight.norm() *
-                              (p.motion == StillMotion::kForward ? 1 : -1);
-          straight_drives.back().first.turn = turn;
-          straight_drives.back().first.shift = v.centre_before - rot(turn) * v.centre_after;
+          ViewMotion straight = v;
+          straight.turn = options.straight_turn_per_m * v.shift_straight.norm() *
+                          (p.motion == StillMotion::kForward ? 1 : -1);
+          straight.shift = v.centre_before - rot(straight.turn) * v.centre_after;
+          straight_drives.push_back({straight, p.motion == StillMotion::kForward});
+        } else {
+          turned_drives.push_back({v, p.motion == StillMotion::kForward});
         }
       }
     }
   }
+  if (with_turned)
+    straight_drives.insert(straight_drives.end(), turned_drives.begin(), turned_drives.end());
   // The drives known to be straight give the yaw when there are enough of them (alone, when
   // straight_only).
   if (options.straight_only || static_cast<int>(straight_drives.size()) >= options.min_straight)
@@ -274,7 +281,17 @@ TagMountResult solveMount(const std::vector<TagStill>& all_stills,
 TagMountResult mountFromTags(const std::vector<TagStill>& stills,
                              const std::vector<StillPair>& pairs, const TagMountOptions& options) {
   options.validate();
-  TagMountResult out = solveMount(stills, pairs, options);
+  // A drive the tags say turned gives the yaw only through that turn, whose error the tags' lever
+  // multiplies (a turn 0.3 deg off moves the yaw by about 1 deg): such drives count only where
+  // those taken as straight are too few, and then in every replica below too.
+  bool with_turned = false;
+  TagMountResult out;
+  try {
+    out = solveMount(stills, pairs, options, with_turned);
+  } catch (const CalibrationError&) {
+    with_turned = true;
+    out = solveMount(stills, pairs, options, with_turned);
+  }
   // One standard deviation of each number by the delete-one jackknife over the stills (Efron and
   // Tibshirani, "An Introduction to the Bootstrap", ch. 11): the solve again without one still's
   // tags (and so without the motions that start or end there). The tags of one still share its
@@ -289,7 +306,7 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
     if (stills[i].tags.empty()) continue;
     without[i].tags.clear();
     try {
-      replicas.push_back(solveMount(without, pairs, replica_options).mount);
+      replicas.push_back(solveMount(without, pairs, replica_options, with_turned).mount);
     } catch (const CalibrationError&) {
       // Without this still the data no longer determine the mount: it adds no replica.
     }
@@ -301,7 +318,7 @@ TagMountResult mountFromTags(const std::vector<TagStill>& stills,
   TagMountOptions turned = options;
   turned.straight_turn_per_m += dk;
   out.yaw_per_turn_per_m =
-      wrap(solveMount(stills, pairs, turned).mount.yaw_rad - out.mount.yaw_rad) / dk;
+      wrap(solveMount(stills, pairs, turned, with_turned).mount.yaw_rad - out.mount.yaw_rad) / dk;
   const size_t n = replicas.size();
   if (n < 3) return out;
   const CameraMount& m = out.mount;

@@ -55,12 +55,14 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_spin_rad: must be within [0.1, 0.6] [rad]");
   if (!(extrinsics_drive_m >= 0 && extrinsics_drive_m <= 0.5))
     throw ConfigError("extrinsics_drive_m: must be within [0, 0.5] [m]");
-  if (extrinsics_drives < 0 || extrinsics_drives > 20 || extrinsics_drives % 2 != 0)
-    throw ConfigError("extrinsics_drives: must be an even number within [0, 20]");
+  if (extrinsics_drives < 0 || extrinsics_drives > 20)
+    throw ConfigError("extrinsics_drives: must be within [0, 20]");
+  if (extrinsics_drives_back < 0 || extrinsics_drives_back > 20)
+    throw ConfigError("extrinsics_drives_back: must be within [0, 20]");
   if (extrinsics_spins > 0 && extrinsics_drive_m > 0 && extrinsics_drives > 0 &&
-      (extrinsics_min_hops < 1 || extrinsics_min_hops > extrinsics_drives / 2 - 1)) {
+      (extrinsics_min_hops < 1 || extrinsics_min_hops > extrinsics_drives - 1)) {
     throw ConfigError(
-        "extrinsics_min_hops: must be within [1, extrinsics_drives / 2 - 1] (the first hop forward "
+        "extrinsics_min_hops: must be within [1, extrinsics_drives - 1] (the first hop forward "
         "gives no yaw)");
   }
   if (!(extrinsics_max_floor_sigma_m > 0))
@@ -386,7 +388,7 @@ void WheelRun::startSpin() {
 }
 
 void WheelRun::startExtrinsicsDrive(double now_s) {
-  const int sign = extrinsics_drives_done_ < options_.extrinsics_drives / 2 ? +1 : -1;
+  const int sign = extrinsics_drives_done_ < options_.extrinsics_drives ? +1 : -1;
   ++extrinsics_drives_done_;
   startDrive(now_s, sign, options_.drive_speed_mps);
   startMotionClock(options_.extrinsics_drive_m / options_.drive_speed_mps);
@@ -402,13 +404,13 @@ void WheelRun::recordStill() {
         : since_still_ == SinceStill::kBackward ? extrinsics::StillMotion::kBackward
                                                 : extrinsics::StillMotion::kSpin;
     // The stage's own short hops forward come after the trim converged: straight, but for the
-    // first. The turns on the spot before it left each wheel's gearbox play taken up the way that
-    // wheel last turned, opposite ways: the first hop starts with one wheel crossing its play
-    // while the other drives, a turn made at the start rather than along the hop, whose chord is
-    // then not at half the turn. It takes the play up on both wheels; its stills count, its drive
-    // not for the yaw. The hops back are not known to be straight: the trim was fitted forward,
-    // and a robot's wheels differ backward (gains, breakaway) and cross their play again at the
-    // reversal; on the robustness draws they turned by 1-6 deg, most of it at their start.
+    // first. The turns on the spot and the alignment's steps before it left each wheel's gearbox
+    // play taken up the way that wheel last turned: the first hop starts with a wheel crossing
+    // its play while the other drives, a turn made at the start rather than along the hop, whose
+    // chord is then not at half the turn. It takes the play up on both wheels; its stills count,
+    // its drive not for the yaw. The hops back are not known to be straight: the trim was fitted
+    // forward, and a robot's wheels differ backward (gains, breakaway) and cross their play again
+    // at the reversal; on the robustness draws they turned by 1-6 deg, most of it at their start.
     const bool straight = stage_ == WheelRunStage::kExtrinsics &&
                           m == extrinsics::StillMotion::kForward && extrinsics_drives_done_ > 1;
     still_pairs_.push_back({now - 1, now, m, straight});
@@ -583,7 +585,15 @@ void WheelRun::onMeasured(double now_s) {
       if (spins_done_ < options_.extrinsics_spins) {
         startSpin();
       } else if (options_.extrinsics_drive_m > 0 &&
-                 extrinsics_drives_done_ < options_.extrinsics_drives) {
+                 extrinsics_drives_done_ <
+                     options_.extrinsics_drives + options_.extrinsics_drives_back) {
+        if (extrinsics_drives_done_ == 0 && !aligned_for_hops_) {
+          aligned_for_hops_ = true;
+          // The turns left the robot degrees off the tag line (each turn's error adds up), and
+          // hops that run off the line lose their tags: on to the line's heading first.
+          startAlign(WheelRunStage::kExtrinsics);
+          return;
+        }
         startExtrinsicsDrive(now_s);
       } else {
         finishExtrinsics();
@@ -623,7 +633,11 @@ void WheelRun::onMeasured(double now_s) {
           startLeave(now_s);
         } else if (after_align_ == WheelRunStage::kExtrinsics) {
           stage_ = WheelRunStage::kExtrinsics;
-          startSpin();
+          if (spins_done_ < options_.extrinsics_spins) {
+            startSpin();
+          } else {
+            startExtrinsicsDrive(now_s);
+          }
         } else {
           stage_ = WheelRunStage::kIterate;
           heading_before_drive_ = m.heading_rad;
@@ -949,7 +963,8 @@ double WheelRun::progress() const {
       return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);
     case WheelRunStage::kExtrinsics:
       return 0.8 + 0.05 * (spins_done_ + extrinsics_drives_done_) /
-                       std::max(1, options_.extrinsics_spins + options_.extrinsics_drives);
+                       std::max(1, options_.extrinsics_spins + options_.extrinsics_drives +
+                                       options_.extrinsics_drives_back);
     case WheelRunStage::kLeave:
       return 0.9;
     default:

@@ -9,6 +9,7 @@ target_sources(autocal_camera PRIVATE
   src/core/camera/wheel_turn.cpp
   src/core/camera/sweep_controller.cpp
   src/core/camera/min_duty_probe.cpp
+  src/core/camera/image_stillness.cpp
   src/core/camera/sweep_run.cpp
   src/core/camera/view_targets.cpp
   src/core/camera/sweep_replay.cpp
@@ -114,6 +115,9 @@ endif()
 
 if(CATKIN_ENABLE_TESTING)
   autocal_core_gtest(test_sweep_run SOURCES test/camera/test_sweep_run.cpp LIBS autocal_core)
+  # Whether the image stands still, from two frames (phase correlation).
+  autocal_core_gtest(test_image_stillness SOURCES test/camera/test_image_stillness.cpp
+                     LIBS autocal_core)
 endif()
 
 if(CATKIN_ENABLE_TESTING)

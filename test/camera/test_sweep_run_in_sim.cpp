@@ -4,9 +4,11 @@
 // (DESIGN.md "What real Duckiebots look like").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/sweep_replay.h"
@@ -208,9 +210,14 @@ TEST(SweepRunInSim, FloorBoardsPinTheWholeImage) {
   const camera::ModelChoice refused = camera::calibrateChoosingModel(
       r.sharp, r.image_size, r.board, image_geometry, config.quality_gate);
   EXPECT_FALSE(refused.passed);
-  EXPECT_NE(refused.refusals("; ").find("equidistant (not listed) fits these views"),
-            std::string::npos)
-      << refused.refusals("; ");
+  // Either none listed passes ("equidistant (not listed) fits these views"), or the rational fit
+  // passes and is refused for how far it projects from the equidistant one (which of the two
+  // depends on the views).
+  const std::string refusal = refused.refusals("; ");
+  EXPECT_TRUE(refusal.find("equidistant (not listed) fits these views") != std::string::npos ||
+              refusal.find("equidistant, which these views fit best (not listed)") !=
+                  std::string::npos)
+      << refusal;
   const camera::ModelChoice far = camera::calibrateChoosingModel(
       r.sharp, r.image_size, r.board, image_geometry, relaxed);
   const std::string why = far.refusals("; ");
@@ -374,6 +381,62 @@ TEST(SweepRunInSim, JudgingTheViewsSpendsNoneOfTheRoundsTime) {
             config.quality_gate.max_lower_half_uncertainty_px);
 }
 
+// A robot whose world does not wait: the realistic robot through its links (frames 0.1 s late),
+// its stops reaching the motors 0.15 s late, as from a loaded small computer (robot mode at
+// real_time_factor 3 under load showed the robot turning at up to 0.022 rad/s at its views). The
+// wheels then coast to rest after settle_s has begun, and well before they stand they turn less
+// than one encoder tick between readings: the encoders say the robot settled while the image still
+// moves. The stage takes a stop's view only once its image stood still between two frames: at
+// every view the truth turned the robot by less than 0.015 rad/s (4.5 px/s at this lens's 300 px
+// focal length; 3 px/s is the stage's bound). With the image's check off (max_image_speed_px_s
+// 0), the encoders alone, views are taken while it turns faster.
+struct LateStops {
+  std::vector<double> yaw_rates;
+  int not_seen_still = 0;
+  bool swept = false;
+};
+
+LateStops sweepWithLateStops(double max_image_speed_px_s) {
+  sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot.yaml");
+  robot.transport.wheels_cmd.latency_s = 0.15;
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  camera::SweepRunOptions options = runOptionsFor(robot);
+  options.stillness.max_speed_px_s = max_image_speed_px_s;
+  camera::SweepRun run(options, cameraConfigFor(world, robot));
+  test::SweepInSimOptions so;
+  so.transport = true;
+  const test::SweepInSim r = test::runSweepInSim(robot, world, run, so);
+  LateStops out;
+  out.yaw_rates = r.view_yaw_rate_rad_s;
+  out.not_seen_still = run.viewsNotSeenStill();
+  out.swept = r.swept;
+  EXPECT_TRUE(r.swept) << r.failure;
+  return out;
+}
+
+int fasterThan(const std::vector<double>& rates, double bound) {
+  return static_cast<int>(std::count_if(rates.begin(), rates.end(),
+                                        [&](double w) { return w > bound; }));
+}
+
+TEST(SweepRunInSim, ViewsAreTakenOnceTheImageStandsStill) {
+  const double bound = 0.015;  // [rad/s]
+  const LateStops checked = sweepWithLateStops(camera::ImageStillnessOptions().max_speed_px_s);
+  const LateStops encoders_only = sweepWithLateStops(0.0);
+  for (const LateStops* l : {&checked, &encoders_only}) {
+    std::vector<double> w = l->yaw_rates;
+    std::sort(w.begin(), w.end());
+    std::cout << (l == &checked ? "image checked" : "encoders only") << ": " << w.size()
+              << " views, yaw rate at capture median "
+              << (w.empty() ? 0.0 : w[w.size() / 2]) << " worst " << (w.empty() ? 0.0 : w.back())
+              << " rad/s, " << fasterThan(w, bound) << " over " << bound << "; "
+              << l->not_seen_still << " taken without the image seen still\n";
+  }
+  ASSERT_FALSE(checked.yaw_rates.empty());
+  EXPECT_EQ(fasterThan(checked.yaw_rates, bound), 0);
+  EXPECT_GT(fasterThan(encoders_only.yaw_rates, bound), 0);
+}
+
 /// The replay fed what a recording of the live run holds, in the order it holds it.
 struct ReplayTap : test::RecordingTap {
   ReplayTap(const camera::SweepRunOptions& o, const camera::CameraCalibrationConfig& c)
@@ -424,7 +487,9 @@ TEST(SweepReplayInSim, WideLens) { expectReplayMatches("fleet/robot_wide.yaml", 
 TEST(SweepReplay, TakesOneSettledFrameAStopOnlyWhileCollecting) {
   const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot_ideal.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
-  camera::SweepReplay r(runOptionsFor(robot), cameraConfigFor(world, robot));
+  camera::SweepRunOptions options = runOptionsFor(robot);
+  options.stillness.max_speed_px_s = 0;  // the encoders' rule alone (next test: the image's)
+  camera::SweepReplay r(options, cameraConfigFor(world, robot));
   const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
   r.addEncoders(0.0, 0, 0);
   EXPECT_FALSE(r.wantsFrame(1.0));  // the probe: not collecting
@@ -444,6 +509,42 @@ TEST(SweepReplay, TakesOneSettledFrameAStopOnlyWhileCollecting) {
   EXPECT_TRUE(r.wantsFrame(2.4));
   EXPECT_EQ(r.stops(), 1);
   EXPECT_THROW(r.calibrate(), CalibrationError);  // no board in grey frames
+}
+
+// Without the live stage's record of the frames it took, the replay takes SweepRun's: once settled,
+// the first frame whose image moved no faster than max_image_speed_px_s since the frame before;
+// a featureless image shows nothing, and its frame is taken max_still_wait_s after settling.
+TEST(SweepReplay, TakesTheFirstSettledFrameTheImageShowsStill) {
+  const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "robot_ideal.yaml");
+  const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
+  const camera::SweepRunOptions options = runOptionsFor(robot);
+  camera::SweepReplay r(options, cameraConfigFor(world, robot));
+  cv::Mat texture(480, 640, CV_8UC1), moved;
+  cv::RNG(5).fill(texture, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(texture, texture, cv::Size(), 4.0);
+  cv::normalize(texture, texture, 0, 255, cv::NORM_MINMAX);
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 0.5, 0, 1, 0);  // 0.5 px: 15 px/s
+  cv::warpAffine(texture, moved, shift, texture.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  r.addEncoders(0.0, 0, 0);
+  r.setCollecting(1.0, true);
+  r.addEncoders(1.5, 0, 0);
+  ASSERT_TRUE(r.wantsFrame(1.5));
+  EXPECT_FALSE(r.addFrame(1.5, texture, "a"));  // nothing to compare with
+  EXPECT_FALSE(r.addFrame(1.533, moved, "b"));  // moving
+  EXPECT_TRUE(r.wantsFrame(1.567));
+  EXPECT_TRUE(r.addFrame(1.567, moved, "c"));  // still
+  EXPECT_EQ(r.stops(), 1);
+  EXPECT_FALSE(r.wantsFrame(1.6));
+  // The next stop, in front of a bare wall.
+  r.addCommand(1.7, {0.0, 0.3});
+  r.addEncoders(1.8, 0, 5);
+  r.addCommand(1.9, {0.0, 0.0});
+  r.addEncoders(2.3, 0, 5);
+  const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
+  double t = 2.3;
+  for (; t < 2.3 + options.max_still_wait_s; t += 0.0333) EXPECT_FALSE(r.addFrame(t, grey, "g"));
+  EXPECT_TRUE(r.addFrame(t, grey, "g"));
+  EXPECT_EQ(r.stops(), 2);
 }
 
 struct Case {

@@ -1,6 +1,7 @@
 #include "support/stage_in_sim.h"
 
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <random>
 
@@ -25,6 +26,13 @@ sim::Renderer robotRenderer(const sim::RobotConfig& robot, const sim::WorldConfi
   render.noise_sigma = robot.camera.noise_sigma;
   render.noise_seed = seed;
   return sim::Renderer(robot.camera, world, render);
+}
+
+double trueYawRateRadS(const sim::Simulation& simulation, const sim::RobotConfig& robot,
+                       double capture_s) {
+  const double frame_s = 1.0 / robot.camera.rate_hz;
+  const std::vector<sim::Pose2> p = simulation.posesDuring(capture_s - frame_s, capture_s, 2);
+  return std::abs(std::remainder(p.back().yaw_rad - p.front().yaw_rad, 2 * M_PI)) / frame_s;
 }
 
 StageInSim runStageInSim(Stage& stage, sim::Simulation& simulation, const sim::RobotConfig& robot,
@@ -78,9 +86,9 @@ StageInSim runStageInSim(Stage& stage, sim::Simulation& simulation, const sim::R
           if (!stage_wants) return;
           ++out.frames_processed;
           const double c0 = threadCpuMs();
-          stage.addFrame(t, image, "sim@" + std::to_string(t));
+          const bool taken = stage.addFrame(t, image, "sim@" + std::to_string(t));
           out.frame_ms.push_back(threadCpuMs() - c0);
-          if (options.after_frame) options.after_frame(t);
+          if (options.after_frame) options.after_frame(t, taken);
         });
         next_frame += frame_dt;
       }

@@ -39,8 +39,8 @@ struct StageInSimOptions {
   /// Called at each control step before the readings (t: sim time), and after the physics advanced.
   std::function<void(double t_s)> before_step;
   std::function<void(double t_s)> after_step;
-  /// Called after the stage took a frame.
-  std::function<void(double t_s)> after_frame;
+  /// Called after the stage was given a frame it wanted; `taken`: Stage::addFrame said it took it.
+  std::function<void(double t_s, bool taken)> after_frame;
   /// Faults injected between the simulator and the stage: each may alter a reading taken at t.
   std::function<void(double t_s, std::int32_t& left, std::int32_t& right)> encoders;
   std::function<void(double t_s, double& range_m)> range;
@@ -64,6 +64,11 @@ struct StageInSim {
 /// with `seed`).
 sim::Renderer robotRenderer(const sim::RobotConfig& robot, const sim::WorldConfig& world,
                             uint64_t seed);
+
+/// The truth: how fast the robot turned over the camera's frame period before `capture_s`
+/// [rad/s] (from the pose history).
+double trueYawRateRadS(const sim::Simulation& simulation, const sim::RobotConfig& robot,
+                       double capture_s);
 
 /// Runs `stage` on `simulation` (its robot `robot`) until done, failed or max_sim_s; the wheels
 /// are stopped at the end. `renderer` draws the frames (null: the stage gets none).

@@ -43,8 +43,10 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
     if (out.progress.empty() || out.progress.back().second != run.progress())
       out.progress.emplace_back(t, run.progress());
   };
-  if (options.trace) {
-    o.after_frame = [&](double t) {
+  o.after_frame = [&](double t, bool taken) {
+    if (taken) out.view_yaw_rate_rad_s.push_back(trueYawRateRadS(simulation, robot, t));
+    if (options.after_frame) options.after_frame(t, taken);
+    if (options.trace && taken) {
       std::string xs;
       for (const auto& d : run.lastFrame().frame.decisions)
         xs += " " + std::to_string(d.params.x).substr(0, 4);
@@ -52,8 +54,8 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
       std::fprintf(stderr, "t %.2f yaw %.3f boards[%s] -> %s | %s\n", t, simulation.pose().yaw_rad,
                    xs.c_str(), d.turn() ? camera::name(d.direction) : d.reason.c_str(),
                    run.controller().describe().c_str());
-    };
-  }
+    }
+  };
   const StageInSim r = runStageInSim(run, simulation, robot, &renderer, o);
   out.frames_rendered = r.frames_processed;
   out.frame_ms = r.frame_ms;

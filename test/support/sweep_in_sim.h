@@ -41,6 +41,9 @@ struct SweepInSim {
   camera::CalibrationOptions calibration_options;  ///< what the run calibrated with
   cv::Size image_size;
   std::vector<std::vector<cv::Point2f>> sharp;  ///< every sharp board seen (refined corners)
+  /// The truth at each frame the stage took: how fast the robot turned over the frame period
+  /// before its capture stamp [rad/s].
+  std::vector<double> view_yaw_rate_rad_s;
 };
 
 /// The shipped camera config as the node uses it with `world`'s boards, starting from what

@@ -1,10 +1,10 @@
 // The camera stage recomputed from a recording, ROS-free: the passive counterpart of SweepRun. It
 // commands nothing; it follows the commands the robot was given (its wheels_cmd) and, in each stop
 // of the sweep (paper 000 §3.2: pulse, stop, settle, grab), takes the first frame after the robot
-// settled — settle_s after the stop and the encoders still for still_s, as SweepRun — into the same
-// ViewCollector, then calibrates the views exactly as SweepRun does. Only stops while the recorded
-// run was collecting count (the min-duty probe's stops do not): the caller says when from the
-// recorded status (setCollecting).
+// settled — settle_s after the stop and the encoders still for still_s, and the image seen still
+// (SweepRunOptions::stillness), as SweepRun — into the same ViewCollector, then calibrates the
+// views exactly as SweepRun does. Only stops while the recorded run was collecting count (the
+// min-duty probe's stops do not): the caller says when from the recorded status (setCollecting).
 #pragma once
 
 #include <map>
@@ -45,7 +45,8 @@ class SweepReplay : public Stage {
   /// The stamps of the frames the live stage took (its node records them): the replay takes the
   /// same frames rather than judging by its own rule where a loaded live node skipped one.
   void setFramesUsed(std::set<double> stamps_s) { frames_used_ = std::move(stamps_s); }
-  /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted.
+  /// Processes a wanted frame (8-bit grey or colour, one size); false when it was not wanted, or
+  /// (without setFramesUsed) only compared with the next frame.
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
   /// Stage input: addCommand, and setCollecting while the phase is camera/collect or camera/refine
   /// (more views after the sweep).
@@ -90,6 +91,9 @@ class SweepReplay : public Stage {
   bool collecting_ = false;
   bool moving_ = false;
   bool taken_ = true;  ///< the current stop's frame was taken (nothing to take before a stop)
+  ImageStillness stillness_;      ///< the current stop's frames
+  double first_settled_s_ = -1;  ///< the current stop's first settled frame (-1: none yet)
+  void newStop(double stamp_s);
   double stop_s_ = 0;
   int stops_ = 0;
   EncoderTracker encoders_;

@@ -20,6 +20,7 @@
 
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/calibration_files.h"
+#include "autocal/camera/image_stillness.h"
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/min_duty_probe.h"
 #include "autocal/camera/sweep_controller.h"
@@ -52,6 +53,13 @@ struct SweepRunOptions {
   double nominal_wheelbase_m = 0.1;
   /// The wheels count as still when no encoder changed for this long [s].
   double still_s = 0.1;
+  /// Beyond the paper: once the encoders say the robot settled, its view is the first frame whose
+  /// image moved no faster than stillness.max_speed_px_s since the frame before (a wheel coasting
+  /// to rest turns less than a tick long before it stands); max_still_wait_s after settling, the
+  /// next frame is taken whatever the image says, and counted (status figure
+  /// views_not_seen_still). stillness.max_speed_px_s 0: the first settled frame, as the paper.
+  ImageStillnessOptions stillness;
+  double max_still_wait_s = 0.5;
   /// No frame (encoder reading) for this long while running is a failure [s].
   double camera_timeout_s = 5.0;
   double encoder_timeout_s = 2.0;
@@ -142,7 +150,8 @@ class SweepRun : public Stage {
   /// reading handled before it would look older than it is.
   void noteEncodersArrived(double now_s) override;
   /// Processes a wanted frame (8-bit grey or colour, the size of the first frame: the caller
-  /// drops others). Returns false when it was not wanted.
+  /// drops others). Returns true when it was taken as the stop's view; false when it was not
+  /// wanted, or only compared with the next frame (SweepRunOptions::stillness).
   bool addFrame(double stamp_s, const cv::Mat& image, const std::string& source) override;
   /// Advances the state at time `now_s` and returns the duties to command now. Throws
   /// CalibrationError when the stage fails (the reason names what went wrong).
@@ -181,6 +190,8 @@ class SweepRun : public Stage {
   /// Grey frames by CalibrationView::frame_index, for the audit folder.
   const std::map<int, cv::Mat>& frames() const { return frames_; }
   const SweepFrameReport& lastFrame() const { return last_frame_; }
+  /// Views taken max_still_wait_s after settling without the image seen still.
+  int viewsNotSeenStill() const { return views_not_seen_still_; }
   /// Seconds since the stage started (0 before), steps made, frames processed.
   double elapsedS() const { return started_ ? last_now_s_ - start_s_ : 0.0; }
   int framesProcessed() const { return collector_.frames(); }
@@ -236,6 +247,10 @@ class SweepRun : public Stage {
   bool probe_pulsed_ = false;
   bool pending_decision_ = false;  ///< a frame was processed; update() acts on its decision
   double settled_at_s_ = -1;       ///< when the robot was found settled (-1: not yet)
+  ImageStillness stillness_;       ///< the frames since settled_at_s_
+  int views_not_seen_still_ = 0;   ///< taken after max_still_wait_s without a still image
+  /// Settled at `now_s` (or again, for a refine grab): the view is the next still frame.
+  void settleAt(double now_s);
   /// Updates in a row without a frame (encoder reading); a timeout needs more than this many.
   static constexpr int kSilentUpdates = 10;
   int updates_without_frames_ = 0, updates_without_encoders_ = 0;

@@ -13,16 +13,21 @@ namespace camera {
 SweepReplay::SweepReplay(const SweepRunOptions& options, const CameraCalibrationConfig& camera)
     : options_((options.validate(), options)),
       camera_(sweepCameraConfig(camera, options_)),
-      collector_(camera_.board, camera_.detector, camera_.selection) {}
+      collector_(camera_.board, camera_.detector, camera_.selection),
+      stillness_(options_.stillness) {}
+
+void SweepReplay::newStop(double stamp_s) {
+  stop_s_ = stamp_s;
+  taken_ = false;
+  first_settled_s_ = -1;
+  stillness_.reset();
+}
 
 void SweepReplay::addCommand(double stamp_s, const WheelDuties& duties) {
   const bool moving = std::abs(duties.left) > 1e-6 || std::abs(duties.right) > 1e-6;
   if (moving == moving_) return;
   moving_ = moving;
-  if (!moving) {  // a stop: its frame is to be taken once settled
-    stop_s_ = stamp_s;
-    taken_ = false;
-  }
+  if (!moving) newStop(stamp_s);  // a stop: its frame is to be taken once settled
 }
 
 void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
@@ -31,10 +36,7 @@ void SweepReplay::addEncoders(double stamp_s, int left_ticks, int right_ticks,
 }
 
 void SweepReplay::setCollecting(double stamp_s, bool collecting) {
-  if (collecting && !collecting_ && !moving_) {
-    stop_s_ = std::max(stop_s_, stamp_s);
-    taken_ = false;
-  }
+  if (collecting && !collecting_ && !moving_) newStop(std::max(stop_s_, stamp_s));
   collecting_ = collecting;
 }
 
@@ -47,6 +49,12 @@ bool SweepReplay::wantsFrame(double stamp_s) const {
 
 bool SweepReplay::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {
   if (!wantsFrame(stamp_s)) return false;
+  if (frames_used_.empty()) {  // SweepRun's rule: the first frame the image shows still
+    if (first_settled_s_ < 0) first_settled_s_ = stamp_s;
+    if (!stillness_.add(stamp_s, image) &&
+        stamp_s < first_settled_s_ + options_.max_still_wait_s)
+      return false;
+  }
   taken_ = true;
   ++stops_;
   const int frame_index = collector_.frames();

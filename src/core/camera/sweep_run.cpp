@@ -26,6 +26,9 @@ void SweepRunOptions::validate() const {
   checkConfig(std::isfinite(nominal_wheelbase_m) && nominal_wheelbase_m > 0, "nominal_wheelbase_m",
               "must be > 0");
   checkConfig(std::isfinite(still_s) && still_s >= 0, "still_s", "must be >= 0");
+  stillness.validate();
+  checkConfig(std::isfinite(max_still_wait_s) && max_still_wait_s >= 0, "max_still_wait_s",
+              "must be >= 0 [s]");
   checkConfig(std::isfinite(camera_timeout_s) && camera_timeout_s > 0, "camera_timeout_s",
               "must be > 0");
   checkConfig(std::isfinite(encoder_timeout_s) && encoder_timeout_s > 0, "encoder_timeout_s",
@@ -89,7 +92,8 @@ SweepRun::SweepRun(const SweepRunOptions& options, const CameraCalibrationConfig
       camera_(sweepCameraConfig(camera, options_)),
       controller_(options.sweep),
       probe_(options.probe),
-      collector_(camera_.board, camera_.detector, camera_.selection) {
+      collector_(camera_.board, camera_.detector, camera_.selection),
+      stillness_(options_.stillness) {
   duty_above_min_ = std::max(options_.sweep.step_duty_margin, 0.03);
 }
 
@@ -143,8 +147,17 @@ double SweepRun::headingChangeSinceObservation() {
   return turned;
 }
 
+void SweepRun::settleAt(double now_s) {
+  settled_at_s_ = now_s;
+  stillness_.reset();
+}
+
 bool SweepRun::addFrame(double stamp_s, const cv::Mat& image, const std::string& source) {
   if (!wantsFrame(stamp_s)) return false;
+  if (!stillness_.add(stamp_s, image)) {
+    if (stamp_s < settled_at_s_ + options_.max_still_wait_s) return false;
+    ++views_not_seen_still_;
+  }
   const int frame_index = collector_.frames();
   const size_t sharp_before = collector_.sharpViews().size();
   FrameResult frame = collector_.addFrame(image, source);
@@ -277,7 +290,7 @@ WheelDuties SweepRun::update(double now_s) {
   // Settling (or waiting for the settled frame).
   if (settled_at_s_ < 0) {
     if (!settled(now_s)) return stop;
-    settled_at_s_ = now_s;
+    settleAt(now_s);
   }
   if (stage_ == SweepRunStage::kRefine) return refineStep(now_s);
   if (stage_ == SweepRunStage::kProbe) {
@@ -432,7 +445,7 @@ WheelDuties SweepRun::refineStep(double now_s) {
     // The next frame from now: the robot stood still since it settled, but a judgement may have
     // taken longer than camera_timeout_s since then.
     refine_grab_ = true;
-    settled_at_s_ = std::max(settled_at_s_, now_s);
+    settleAt(std::max(settled_at_s_, now_s));
     return stop;
   }
   refine_last_remaining_ = remaining;
@@ -537,6 +550,7 @@ StageStatus SweepRun::status() const {
                {"frames", framesProcessed()},
                {"steps", controller_.steps()},
                {"refine_rounds", refine_round_},
+               {"views_not_seen_still", views_not_seen_still_},
                {"elapsed_s", elapsedS()}};
   return s;
 }

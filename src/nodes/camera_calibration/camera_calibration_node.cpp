@@ -62,6 +62,8 @@ CameraCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::N
   p.get("nominal_wheel_radius_m", r.nominal_wheel_radius_m);
   p.get("nominal_wheelbase_m", r.nominal_wheelbase_m);
   p.get("still_s", r.still_s);
+  p.get("max_image_speed_px_s", r.stillness.max_speed_px_s);
+  p.get("max_still_wait_s", r.max_still_wait_s);
   p.get("camera_timeout_s", r.camera_timeout_s);
   p.get("encoder_timeout_s", r.encoder_timeout_s);
   p.get("max_duration_s", r.max_duration_s);

@@ -1,10 +1,9 @@
 // Whether the camera stands still, judged from its own frames: the shift of the whole image between
 // two frames (phase correlation, and below a pixel the image gradients) over the time between
-// their stamps. The encoders cannot see the
-// end of a stop: a wheel coasting to rest turns less than one tick between readings long before it
-// stands (1 tick of a Duckiebot's 135 is 1.5 mm of wheel), while the image still moves by a pixel
-// a second or more and smears a view taken then. A camera wobbling on its mount after a stop shows
-// here too, and nowhere in the encoders. No ROS.
+// their stamps. The encoders cannot see the end of a stop: a wheel coasting to rest turns less
+// than one tick between readings long before it stands (1 tick of a Duckiebot's 135 is 1.5 mm of
+// wheel), while the image still moves by a pixel a second or more and smears a view taken then. A
+// camera wobbling on its mount after a stop shows here too, and nowhere in the encoders. No ROS.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -45,7 +44,7 @@ class ImageStillness {
   /// (always true when not enabled). A frame stamped no later than the one before replaces it.
   bool add(double stamp_s, const cv::Mat& image);
   /// The image's speed between the last two frames [px/s] (-1: none measured yet, or no
-  /// measurement: see min_response).
+  /// measurement: see min_response and min_gradient).
   double lastSpeedPxS() const { return last_speed_px_s_; }
 
  private:

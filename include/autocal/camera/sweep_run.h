@@ -20,8 +20,8 @@
 
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/calibration_files.h"
-#include "autocal/camera/image_stillness.h"
 #include "autocal/camera/camera_config.h"
+#include "autocal/camera/image_stillness.h"
 #include "autocal/camera/min_duty_probe.h"
 #include "autocal/camera/sweep_controller.h"
 #include "autocal/camera/view_selection.h"

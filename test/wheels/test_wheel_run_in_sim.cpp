@@ -356,8 +356,8 @@ TEST_P(WheelRunMountInSim, CameraMountFromTheStagesStills) {
   EXPECT_NEAR(m.roll_rad, t.roll_rad, 0.3 * deg);
   EXPECT_NEAR(m.yaw_rad, t.yaw_rad, 0.5 * deg);
   // The yaw from the stage's own short hops forward, each with a tag in view before and after,
-  // but the first (it takes up the gearbox play the turns left).
-  EXPECT_EQ(x.straight, o.extrinsics_drives - 1);
+  // but the first of each pass (it takes up the gearbox play the turns and the drive back left).
+  EXPECT_EQ(x.straight, o.extrinsics_passes * (o.extrinsics_drives - 1));
   // The stated uncertainty says the targets hold.
   ASSERT_TRUE(x.has_sigma);
   EXPECT_LT(x.sigma.height_m, 0.002);
@@ -525,6 +525,23 @@ TEST(WheelRunOptions, ExtrinsicsMinHopsWithinTheHopsForward) {
   o.extrinsics_min_hops = 0;
   EXPECT_THROW(o.validate(), ConfigError);
   o.extrinsics_spins = 0;  // no extrinsics: the hops do not matter
+  EXPECT_NO_THROW(o.validate());
+}
+
+// Passes of hops: at least one, and not so many that the stage outlasts its time bound.
+TEST(WheelRunOptions, ExtrinsicsPassesWithinOneToFive) {
+  wheels::WheelRunOptions o;
+  o.extrinsics_spins = 4;
+  for (int passes : {0, 6}) {
+    o.extrinsics_passes = passes;
+    try {
+      o.validate();
+      FAIL() << "no error for " << passes;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("extrinsics_passes"), std::string::npos) << e.what();
+    }
+  }
+  o.extrinsics_passes = 1;
   EXPECT_NO_THROW(o.validate());
 }
 

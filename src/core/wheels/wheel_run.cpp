@@ -59,6 +59,8 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_drives: must be within [0, 20]");
   if (extrinsics_drives_back < 0 || extrinsics_drives_back > 20)
     throw ConfigError("extrinsics_drives_back: must be within [0, 20]");
+  if (extrinsics_passes < 1 || extrinsics_passes > 5)
+    throw ConfigError("extrinsics_passes: must be within [1, 5]");
   if (extrinsics_spins > 0 && extrinsics_drive_m > 0 && extrinsics_drives > 0 &&
       (extrinsics_min_hops < 1 || extrinsics_min_hops > extrinsics_drives - 1)) {
     throw ConfigError(
@@ -389,10 +391,32 @@ void WheelRun::startSpin() {
 
 void WheelRun::startExtrinsicsDrive(double now_s) {
   const int sign = extrinsics_drives_done_ < options_.extrinsics_drives ? +1 : -1;
+  if (extrinsics_drives_done_ == 0)
+    pass_start_ticks_ = 0.5 * (encoders_.rawLeft() + encoders_.rawRight());
   ++extrinsics_drives_done_;
   startDrive(now_s, sign, options_.drive_speed_mps);
   startMotionClock(options_.extrinsics_drive_m / options_.drive_speed_mps);
   purpose_ = Purpose::kSpin;  // a still follows, as after a turn
+}
+
+void WheelRun::startExtrinsicsReturn(double now_s) {
+  // Half a hop behind the pass's start: the next pass's stills see the tags half a hop from
+  // where this pass's saw them, and its hops end half a hop short of this pass's end, on the tags
+  // it found. The drive back is unsteered, with the motor fit's duties per direction (as the
+  // iteration's drives back once it tells the directions apart); it takes no part in the mount.
+  const double ticks = 0.5 * (encoders_.rawLeft() + encoders_.rawRight()) - pass_start_ticks_;
+  const double forward_m = ticks * 2 * M_PI / ticks_per_rev_ * options_.kinematics.radius;
+  const double back_m = std::max(0.0, forward_m) + 0.5 * options_.extrinsics_drive_m;
+  ++extrinsics_pass_;
+  extrinsics_drives_done_ = 0;
+  aligned_for_hops_ = false;  // the drive back turns the robot by a degree or more: align again
+  startDrive(now_s, -1, options_.drive_speed_mps);
+  const WheelDuties d = backwardDuties(drive_.duties);
+  duties_ = {-d.left, -d.right};
+  drive_.duties = d;
+  drive_.backward = true;
+  startMotionClock(back_m / options_.drive_speed_mps);
+  purpose_ = Purpose::kSpin;  // a still follows (it pairs with no other: no tag stays in view)
 }
 
 void WheelRun::recordStill() {
@@ -595,6 +619,10 @@ void WheelRun::onMeasured(double now_s) {
           return;
         }
         startExtrinsicsDrive(now_s);
+      } else if (options_.extrinsics_drive_m > 0 &&
+                 options_.extrinsics_drives + options_.extrinsics_drives_back > 0 &&
+                 extrinsics_pass_ + 1 < options_.extrinsics_passes) {
+        startExtrinsicsReturn(now_s);
       } else {
         finishExtrinsics();
         startAlign(WheelRunStage::kLeave);
@@ -961,10 +989,13 @@ double WheelRun::progress() const {
       return after_align_ == WheelRunStage::kLeave ? 0.85 : 0.05 + 0.05 * std::min(iteration_, 1);
     case WheelRunStage::kIterate:
       return 0.1 + 0.7 * std::min(1.0, iteration_ / 8.0);
-    case WheelRunStage::kExtrinsics:
-      return 0.8 + 0.05 * (spins_done_ + extrinsics_drives_done_) /
-                       std::max(1, options_.extrinsics_spins + options_.extrinsics_drives +
-                                       options_.extrinsics_drives_back);
+    case WheelRunStage::kExtrinsics: {
+      const int hops_per_pass = options_.extrinsics_drives + options_.extrinsics_drives_back;
+      const int done = spins_done_ + extrinsics_pass_ * hops_per_pass + extrinsics_drives_done_;
+      return 0.8 + 0.05 * done /
+                       std::max(1, options_.extrinsics_spins +
+                                       options_.extrinsics_passes * hops_per_pass);
+    }
     case WheelRunStage::kLeave:
       return 0.9;
     default:

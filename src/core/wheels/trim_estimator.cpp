@@ -106,7 +106,8 @@ const TrimIteration& TrimEstimator::addDrive(double delta_theta_rad, double left
       converged_ = true;
     } else if (iterations() >= limit) {
       throw CalibrationError(
-          "the wheel ratio did not converge in " + std::to_string(iterations()) + " drives (k " + formatNumber(ratio_, 4) + ", last update " +
+          "the wheel ratio did not converge in " + std::to_string(iterations()) + " drives (k " +
+          formatNumber(ratio_, 4) + ", last update " +
           formatNumber(history_.back().step, 4) +
           (options_.mean_of_drives > 0 ? "; the last drives' mean is ±" + formatNumber(error, 2) +
                                              " sure, for at most ±" +
@@ -123,22 +124,36 @@ bool TrimEstimator::meanOfLastDrives(double* mean, double* standard_error) const
   // The window grows by each drive beyond max_iterations (its standard error falls as 1/√n), over
   // the plausible drives there are; mean_of_drives of them at least.
   const int window = options_.mean_of_drives + std::max(0, iterations() - options_.max_iterations);
-  std::vector<double> ratios;
+  std::vector<double> ratios;  // the latest first
   for (auto it = history_.rbegin();
        it != history_.rend() && static_cast<int>(ratios.size()) < window; ++it) {
     if (!it->rejected) ratios.push_back(it->ratio_before / it->k_i);
   }
-  const int n = static_cast<int>(ratios.size());
-  if (options_.mean_of_drives < 2 || n < options_.mean_of_drives) {
-    *standard_error = std::numeric_limits<double>::infinity();
+  *standard_error = std::numeric_limits<double>::infinity();
+  if (options_.mean_of_drives < 2 || static_cast<int>(ratios.size()) < options_.mean_of_drives)
     return false;
+  const auto meanOf = [&](int n, double* m, double* error) {
+    double sum = 0, squares = 0;
+    for (int i = 0; i < n; ++i) sum += ratios[i];
+    *m = sum / n;
+    for (int i = 0; i < n; ++i) squares += (ratios[i] - *m) * (ratios[i] - *m);
+    *error = std::sqrt(squares / (n - 1) / n);
+    return *error <= options_.max_mean_error;
+  };
+  if (meanOf(static_cast<int>(ratios.size()), mean, standard_error)) return true;
+  // Those drives disagree: the ratio they measure may have moved during the iteration (the tags
+  // under the later drives laid otherwise, the motors warming), and their mean is none of its
+  // values. The latest drives' mean, over as few of them as are sure enough (the least lag behind
+  // the ratio the robot has now). On none, the whole window's stays for the reason.
+  for (int n = options_.mean_of_drives; n < static_cast<int>(ratios.size()); ++n) {
+    double m = 0, error = 0;
+    if (meanOf(n, &m, &error)) {
+      *mean = m;
+      *standard_error = error;
+      return true;
+    }
   }
-  double sum = 0, squares = 0;
-  for (double r : ratios) sum += r;
-  *mean = sum / n;
-  for (double r : ratios) squares += (r - *mean) * (r - *mean);
-  *standard_error = std::sqrt(squares / (n - 1) / n);
-  return *standard_error <= options_.max_mean_error;
+  return false;
 }
 
 void TrimEstimator::rebase(double ratio) {

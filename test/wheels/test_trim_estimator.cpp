@@ -219,10 +219,10 @@ TEST(TrimEstimator, TheMeanTakesEveryDriveBeyondTheBoundUntilItIsSure) {
 }
 
 // The ratio the drives measure can move during the iteration: the tags under the robot's later
-// drives laid otherwise (a tag turned by a degree reads as a turn of the robot), the motors warming.
-// Here it moves by 1 % over drives 6-18. The early drives then disagree with the late ones, and the
-// mean of them all is not sure however many join it; the latest drives' mean is, and it is the
-// ratio the robot has at the end.
+// drives laid otherwise (a tag turned by a degree reads as a turn of the robot), the motors
+// warming. Here it moves by 1 % over drives 6-18. The early drives then disagree with the late
+// ones, and the mean of them all is not sure however many join it; the latest drives' mean is,
+// and it is the ratio the robot has at the end.
 TEST(TrimEstimator, ARatioThatMovedEndsInTheMeanOfTheLatestDrives) {
   const double noise_rad = 0.004;  // 0.23° per reading, as above
   const auto c_of_drive = [](int drive) {

@@ -47,10 +47,11 @@ struct TrimEstimatorOptions {
   /// without three small updates in a row, the last plausible drives' ratios (k / k_i each) are
   /// averaged after each drive, `mean_of_drives` of them and one more for each drive beyond
   /// max_iterations, and the mean is the result as soon as its standard error is at most
-  /// `max_mean_error` [1]. When that window's drives disagree, the mean of the latest drives
-  /// is taken once it is that sure, over as few as are (mean_of_drives at least): a ratio that
-  /// moved during the iteration leaves early drives that no longer agree. After `more_drives_for_mean` more
-  /// drives without a sure mean the calibration fails. mean_of_drives 0: off.
+  /// `max_mean_error` [1]. When that window's drives disagree, the mean of the latest drives is
+  /// taken once it is that sure, over as few as are (mean_of_drives at least): a ratio that moved
+  /// during the iteration leaves early drives that no longer agree. After
+  /// `more_drives_for_mean` more drives without a sure mean the calibration fails.
+  /// mean_of_drives 0: off.
   int mean_of_drives = 12;
   double max_mean_error = 0.0005;
   int more_drives_for_mean = 16;

@@ -1,6 +1,7 @@
 # camera: core sources, nodes, commands and tests (included from CMakeLists.txt).
 target_sources(autocal_camera PRIVATE
   src/core/camera/chessboard.cpp
+  src/core/camera/lens_refinement.cpp
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp
   src/core/camera/projection_uncertainty.cpp

@@ -27,6 +27,7 @@
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/calibration_files.h"
 #include "autocal/camera/camera_config.h"
+#include "autocal/camera/sweep_run.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/exit_codes.h"
@@ -257,9 +258,9 @@ int run(const Args& args) {
                            std::to_string(collector.frames()) +
                            " frames (check --board: inner corners, not squares)");
   }
-  std::vector<std::vector<cv::Point2f>> corners;
-  for (const auto& v : views) corners.push_back(v.corners);
   const auto t1 = std::chrono::steady_clock::now();
+  const std::vector<std::vector<cv::Point2f>> corners =
+      cornersToCalibrate(views, collector.imageSize(), config);
   const ModelChoice choice = calibrateChoosingModel(corners, collector.imageSize(), board,
                                                     config.calibration, config.quality_gate);
   const CalibrationResult& result = choice.result;

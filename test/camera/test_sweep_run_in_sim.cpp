@@ -52,8 +52,10 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
   // Held-out error: every fourth sharp view is held out, the others are calibrated as the run
   // does, and each held-out view's pose is fitted with those intrinsics (a leave-one-out over
   // 30-46 views takes a minute per robot; this split a second).
+  ASSERT_EQ(r.calibrated.size(), r.sharp.size());
   std::vector<std::vector<cv::Point2f>> train, held;
-  for (size_t i = 0; i < r.sharp.size(); ++i) (i % 4 == 0 ? held : train).push_back(r.sharp[i]);
+  for (size_t i = 0; i < r.calibrated.size(); ++i)
+    (i % 4 == 0 ? held : train).push_back(r.calibrated[i]);
   const camera::CalibrationResult fit =
       camera::calibrate(train, r.image_size, r.board, r.calibration_options);
   const cv::Mat k(fit.intrinsics.cameraMatrix());
@@ -75,27 +77,34 @@ void expectNearTruth(const test::SweepInSim& r, const sim::RobotConfig& robot) {
   EXPECT_LE(held_out_rms, 0.3);
 
   // The pipeline's choices (view selection, outliers, the distortion terms) keep what the views
-  // know: plain cv::calibrateCamera (k1 k2 p1 p2 k3) on every sharp board the sweep saw lands no
-  // closer to the truth, neither from OpenCV's own start nor from the same nominal start.
-  std::vector<std::vector<cv::Point3f>> obj(r.sharp.size(), r.board.points());
+  // know: plain cv::calibrateCamera (k1 k2 p1 p2 k3) on every sharp board the sweep saw, with
+  // the same corners, lands no closer to the truth, neither from OpenCV's own start nor from the
+  // same nominal start.
+  std::vector<std::vector<cv::Point3f>> obj(r.calibrated.size(), r.board.points());
   const double ours_f = std::max(std::abs(e.fx / t.fx - 1), std::abs(e.fy / t.fy - 1));
   const double ours_c = std::hypot(e.cx - t.cx, e.cy - t.cy);
+  ASSERT_GE(r.result.std_devs.size(), 2u);
+  const double sigma_f = std::max(r.result.std_devs[0] / e.fx, r.result.std_devs[1] / e.fy);
+  std::cout << "focal length standard deviation " << 100 * sigma_f << " %\n";
   for (const bool from_nominal : {false, true}) {
     cv::Mat k = from_nominal ? cv::Mat(robot.camera.nominal.cameraMatrix()) : cv::Mat(), d;
     std::vector<cv::Mat> rv, tv;
-    cv::calibrateCamera(obj, r.sharp, r.image_size, k, d, rv, tv,
+    cv::calibrateCamera(obj, r.calibrated, r.image_size, k, d, rv, tv,
                         from_nominal ? cv::CALIB_USE_INTRINSIC_GUESS : 0);
     const double plain_f =
         std::max(std::abs(k.at<double>(0, 0) / t.fx - 1), std::abs(k.at<double>(1, 1) / t.fy - 1));
     const double plain_c = std::hypot(k.at<double>(0, 2) - t.cx, k.at<double>(1, 2) - t.cy);
     std::cout << "plain cv::calibrateCamera (" << (from_nominal ? "nominal start" : "own start")
-              << ") on " << r.sharp.size() << " sharp views: fx " << k.at<double>(0, 0) << " fy "
+              << ") on " << r.calibrated.size() << " sharp views: fx " << k.at<double>(0, 0)
+              << " fy "
               << k.at<double>(1, 1) << " cx " << k.at<double>(0, 2) << " cy " << k.at<double>(1, 2)
               << "; focal error ours " << 100 * ours_f << " % plain " << 100 * plain_f
               << " %, principal point ours " << ours_c << " px plain " << plain_c << " px\n";
-    // Tolerances: 0.05 % in focal length and 0.5 px in the principal point, a sixth of the
-    // accuracy asked for (0.3 %, 2 px): the kept views are a subset of the sharp ones.
-    EXPECT_LE(ours_f, plain_f + 0.0005);
+    // Tolerances: 0.05 % in focal length (or two of the fit's standard deviations, where they
+    // are larger) and 0.5 px in the principal point, a sixth of the accuracy asked for (0.3 %,
+    // 2 px): the kept views are a subset of the sharp ones, and the distortion terms held at 0
+    // move the focal length within its uncertainty.
+    EXPECT_LE(ours_f, plain_f + std::max(0.0005, 2 * sigma_f));
     EXPECT_LE(ours_c, plain_c + 0.5);
   }
 }
@@ -283,9 +292,9 @@ TEST(SweepRunInSim, FisheyeLensGetsTheModelThatFits) {
 // More views where the projection is least sure: the wide lens's sweep, allowed to end as soon as
 // its coverage suffices (no min_steps), leaves the lower half of the image less sure than a strict
 // gate allows (0.6 px). The stage turns to where a corner it saw comes to the least sure cells,
-// takes views there, and passes; the truth confirms the lower half is nearer the lens than from
-// the sweep's views alone. Under a limit the turning robot cannot reach, it gives up after its
-// rounds with the gate's reasons.
+// takes views there, and passes; the truth confirms the written model is as near the lens as its
+// uncertainty says. Under a limit the turning robot cannot reach, it gives up after its rounds
+// with the gate's reasons.
 TEST(SweepRunInSim, MoreViewsWhereTheProjectionIsLeastSure) {
   const sim::RobotConfig robot = sim::loadRobotConfig(kSimConfig + "fleet/robot_wide.yaml");
   const sim::WorldConfig world = sim::loadWorldConfig(kSimConfig + "world.yaml");
@@ -310,13 +319,15 @@ TEST(SweepRunInSim, MoreViewsWhereTheProjectionIsLeastSure) {
   ASSERT_GT(run.sweepViews(), 0);
   ASSERT_GT(static_cast<int>(r.sharp.size()), run.sweepViews());
 
-  // The sweep's views alone, fitted with the gate relaxed, against the written result.
+  // The sweep's views alone, fitted as the stage fits them with the gate relaxed, against the
+  // written result.
   camera::QualityGateOptions relaxed = config.quality_gate;
   relaxed.max_lower_half_uncertainty_px = 1e3;
-  const std::vector<std::vector<cv::Point2f>> sweep_views(r.sharp.begin(),
-                                                          r.sharp.begin() + run.sweepViews());
-  const camera::ModelChoice before =
-      camera::calibrateChoosingModel(sweep_views, r.image_size, r.board, config.calibration, relaxed);
+  const std::vector<camera::CalibrationView> sweep_views(
+      run.sharpViews().begin(), run.sharpViews().begin() + run.sweepViews());
+  const camera::ModelChoice before = camera::calibrateChoosingModel(
+      camera::cornersToCalibrate(sweep_views, r.image_size, config), r.image_size, r.board,
+      config.calibration, relaxed);
   ASSERT_TRUE(before.passed) << before.refusals("; ");
   const sim::ProjectionDifference d_before =
       sim::projectionDifference(robot.camera.truth, before.result.intrinsics);
@@ -331,8 +342,12 @@ TEST(SweepRunInSim, MoreViewsWhereTheProjectionIsLeastSure) {
   EXPECT_LE(u.lower_half_worst_px, config.quality_gate.max_lower_half_uncertainty_px);
   EXPECT_LT(u.lower_half_worst_px, before.result.uncertainty.lower_half_worst_px);
   EXPECT_EQ(d.unmapped, 0);
-  EXPECT_LT(d.lower_rms_px, 0.95 * d_before.lower_rms_px);
-  EXPECT_LT(d.worst_px, d_before.worst_px);
+  // Against the truth, the written model is as near as its uncertainty says, over the lower half
+  // and the whole image. (With the corners refined through the lens the sweep's views alone are
+  // already near it; the plain refinement's bias left both 1-3 px off.)
+  EXPECT_LE(d.lower_rms_px, u.lower_half_worst_px);
+  EXPECT_LE(d.worst_px, 3 * u.worst_px);
+  EXPECT_LE(d.worst_px, 1.0);
 
   config.quality_gate.max_lower_half_uncertainty_px = 0.3;
   options.refine_rounds = 1;

@@ -74,6 +74,8 @@ SweepInSim runSweepInSim(const sim::RobotConfig& robot, const sim::WorldConfig& 
   if (run.stage() != camera::SweepRunStage::kWaitForData) out.min_duty = run.minDuty();
   if (out.swept) {
     try {
+      out.calibrated = camera::cornersToCalibrate(run.collector().calibrationViews(),
+                                                  out.image_size, run.cameraConfig());
       out.result = run.calibrate();
     } catch (const CalibrationError& e) {
       out.calibration_failure = e.what();

@@ -41,6 +41,9 @@ struct SweepInSim {
   camera::CalibrationOptions calibration_options;  ///< what the run calibrated with
   cv::Size image_size;
   std::vector<std::vector<cv::Point2f>> sharp;  ///< every sharp board seen (refined corners)
+  /// The same views' corners as the stage calibrates on them (camera::cornersToCalibrate: refined
+  /// again through the lens where it does that); empty unless swept.
+  std::vector<std::vector<cv::Point2f>> calibrated;
   /// The truth at each frame the stage took: how fast the robot turned over the frame period
   /// before its capture stamp [rad/s].
   std::vector<double> view_yaw_rate_rad_s;

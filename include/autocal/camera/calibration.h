@@ -88,6 +88,10 @@ struct CalibrationOptions {
   /// views all at one height in the image can end in a wrong minimum (the simulator's sweep:
   /// fx 703 px for a true 318, RMS 1 px).
   std::optional<cv::Matx33d> initial_camera_matrix;
+  /// Predict the projection uncertainty and cross-validate the halves (CalibrationResult's
+  /// uncertainty and halves; two more fits). Off for a first fit that only has to explain the
+  /// corners where they were seen.
+  bool judge_whole_image = true;
 };
 
 using autocal::CameraIntrinsics;

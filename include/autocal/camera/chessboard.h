@@ -51,6 +51,12 @@ struct ChessboardDetectorOptions {
   /// Bounds of the sub-pixel window half-size [px].
   int refine_min_half_window_px = 2;
   int refine_max_half_window_px = 11;
+  /// Keep each view's board pixels (40-100 kB a view) and, before the calibration, refine its
+  /// corners again through the lens a first fit of them finds (refineThroughLens): a wide lens
+  /// bends the squares' edges, and the plain refinement's radial bias of a few hundredths of a
+  /// pixel, taken for distortion by the fit, put the simulator's wide lens 0.66 px RMS off over
+  /// the image instead of 0.18 px.
+  bool refine_through_lens = true;
 };
 
 /// One board found in a frame: corners in OpenCV's row-major order of the pattern.

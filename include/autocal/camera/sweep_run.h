@@ -101,9 +101,19 @@ struct SweepRunOptions {
 CameraCalibrationConfig sweepCameraConfig(CameraCalibrationConfig camera,
                                           const SweepRunOptions& options);
 
-/// Calibrates the collector's calibrationViews() (Zhang's method through OpenCV) with each lens
-/// model and applies the config's quality gate (calibrateChoosingModel); throws CalibrationError
-/// when there is no view or the views cannot determine a model.
+/// The views' corners to calibrate on: with ChessboardDetectorOptions::refine_through_lens, each
+/// view that kept its board's pixels refined again through the lens a first fit of all of them
+/// finds (of the config's listed models, the one with the lowest all_corners_rms_px, fitted
+/// without the whole-image judgement), unless that one is equidistant; else as detected. Throws
+/// CalibrationError when the views cannot determine the first model's fit.
+std::vector<std::vector<cv::Point2f>> cornersToCalibrate(const std::vector<CalibrationView>& views,
+                                                         const cv::Size& image_size,
+                                                         const CameraCalibrationConfig& camera);
+
+/// Calibrates the collector's calibrationViews() (Zhang's method through OpenCV; their corners
+/// from cornersToCalibrate) with each lens model and applies the config's quality gate
+/// (calibrateChoosingModel); throws CalibrationError when there is no view or the views cannot
+/// determine a model.
 ModelChoice chooseSweepModel(const ViewCollector& collector, const CameraCalibrationConfig& camera);
 /// The chosen model's result; throws CalibrationError naming the gates it fails (`after`, if not
 /// empty, follows "the result fails the quality gate").

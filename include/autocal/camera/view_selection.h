@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "autocal/camera/chessboard.h"
+#include "autocal/camera/lens_refinement.h"
 
 namespace autocal {
 namespace camera {
@@ -79,6 +80,8 @@ struct CalibrationView {
   double edge_width_px = 0;
   std::string source;  ///< file name or "bag:<topic>@<stamp>"
   int frame_index = -1;
+  /// The board's grey pixels, kept with ChessboardDetectorOptions::refine_through_lens.
+  BoardPatch patch;
 };
 
 /// What happened to one board found in a frame.

@@ -651,6 +651,7 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
   // The free parameters: those with a standard deviation (a fixed one has 0).
   std::vector<bool> fitted;
   for (const double s : f.std_devs) fitted.push_back(s > 0);
+  if (!options.judge_whole_image) return result;
   result.uncertainty = uncertaintyOf(f, obj, img, fitted);
   result.halves = crossValidateHalves(obj, img, image_size, options.model, chosen.flags, fitted,
                                       f.intrinsics, result.uncertainty);

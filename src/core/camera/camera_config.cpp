@@ -100,6 +100,8 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.detector.refine_window_ratio = d.required<double>("refine_window_ratio");
     c.detector.refine_min_half_window_px = d.required<int>("refine_min_half_window_px");
     c.detector.refine_max_half_window_px = d.required<int>("refine_max_half_window_px");
+    c.detector.refine_through_lens =
+        d.optional<bool>("refine_through_lens", c.detector.refine_through_lens);
     d.finish();
   }
   {

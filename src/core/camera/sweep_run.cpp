@@ -330,12 +330,47 @@ WheelDuties SweepRun::update(double now_s) {
   return duties_;
 }
 
-ModelChoice chooseSweepModel(const ViewCollector& collector, const CameraCalibrationConfig& camera) {
+std::vector<std::vector<cv::Point2f>> cornersToCalibrate(const std::vector<CalibrationView>& views,
+                                                         const cv::Size& image_size,
+                                                         const CameraCalibrationConfig& camera) {
   std::vector<std::vector<cv::Point2f>> corners;
-  for (const CalibrationView& v : collector.calibrationViews()) corners.push_back(v.corners);
-  if (corners.empty())
+  for (const CalibrationView& v : views) corners.push_back(v.corners);
+  const bool kept_pixels = std::any_of(views.begin(), views.end(), [](const CalibrationView& v) {
+    return !v.patch.gray.empty();
+  });
+  if (!camera.detector.refine_through_lens || !kept_pixels) return corners;
+  // The listed lens model that explains the corners best: the lens only has to be right where
+  // the corners are.
+  std::optional<CalibrationResult> first;
+  std::vector<DistortionModel> models{camera.calibration.model};
+  for (const DistortionModel m : camera.calibration.fallback_models) models.push_back(m);
+  for (size_t k = 0; k < models.size(); ++k) {
+    CalibrationOptions o = camera.calibration;
+    o.model = models[k];
+    o.judge_whole_image = false;
+    try {
+      CalibrationResult r = calibrate(corners, image_size, camera.board, o);
+      if (!first || r.all_corners_rms_px < first->all_corners_rms_px) first = std::move(r);
+    } catch (const CalibrationError&) {
+      if (k == 0) throw;  // the views themselves cannot determine a model
+    }
+  }
+  const CameraIntrinsics& lens = first->intrinsics;
+  // A fisheye lens's corners are left as detected: over 20 drawn fisheye robots the refinement
+  // changed the whole-image error by noise only (median 0.116 px, 0.112 with it), and a strong
+  // fisheye's sweep went 2.9 px off at the image's corner with it, 8 times its uncertainty.
+  if (lens.distortion_model == DistortionModel::kEquidistant) return corners;
+  for (size_t i = 0; i < views.size(); ++i)
+    corners[i] = refineThroughLens(views[i].patch, camera.board, corners[i], lens, camera.detector);
+  return corners;
+}
+
+ModelChoice chooseSweepModel(const ViewCollector& collector, const CameraCalibrationConfig& camera) {
+  if (collector.calibrationViews().empty())
     throw CalibrationError("no usable view of a " + camera.board.describe() + " board in " +
                            std::to_string(collector.frames()) + " frames");
+  const std::vector<std::vector<cv::Point2f>> corners =
+      cornersToCalibrate(collector.calibrationViews(), collector.imageSize(), camera);
   return calibrateChoosingModel(corners, collector.imageSize(), camera.board, camera.calibration,
                                 camera.quality_gate);
 }

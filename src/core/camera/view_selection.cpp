@@ -119,6 +119,9 @@ FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& sou
       v.edge_width_px = d.edge_width_px;
       v.source = source;
       v.frame_index = frame_index;
+      if (detector_.refine_through_lens) {
+        v.patch = boardPatch(gray, board.corners, detector_.refine_max_half_window_px + 8);
+      }
       if (d.kept) views_.push_back(v);
       if (selection_.keep_sharp_views) sharp_views_.push_back(std::move(v));
     }

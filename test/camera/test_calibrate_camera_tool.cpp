@@ -129,7 +129,8 @@ TEST_F(ToolTest, ImageFolderWritesCameraInfoAndViews) {
   // Again with fewer photos: the folder is replaced whole (no stale view_NNN.png), and the
   // previous YAML and folder are kept as a matching pair of .prev.
   const ToolRun again =
-      runTool("--images '" + kData + "/left0[1-9].jpg'" + board() + " --out " + path("cam.yaml"));
+      runTool("--images '" + kData + "/left[01][1-8].jpg'" + board() + " --out " +
+              path("cam.yaml"));
   ASSERT_EQ(again.exit_code, 0) << again.output;
   const size_t used_again = YAML::LoadFile(path("cam_views/views.yaml"))["views"].size();
   EXPECT_LT(used_again, used.size());

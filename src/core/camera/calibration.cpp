@@ -304,8 +304,9 @@ HalvesCrossValidation crossValidateHalves(const std::vector<Points3>& obj,
   int n = 0;
   for (size_t i = 0; i < d.size(); ++i) {
     if (!std::isfinite(d[i])) continue;
-    const double variance =
-        u[0].sigma_px[i] * u[0].sigma_px[i] + u[1].sigma_px[i] * u[1].sigma_px[i];
+    // Against the corners' noise alone: the views' scatter is what a misfit shows as.
+    const double a = u[0].independent_sigma_px[i], b = u[1].independent_sigma_px[i];
+    const double variance = a * a + b * b;
     if (!(variance > 0)) continue;
     sum += d[i] * d[i];
     expected += variance;

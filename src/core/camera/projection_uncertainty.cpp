@@ -116,13 +116,32 @@ std::vector<cv::Point3d> pixelRays(const CameraIntrinsics& in,
   return out;
 }
 
-cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<bool>& fitted,
-                                 const cv::Mat& cov, const cv::Point2d& pixel) {
+namespace {
+
+/// The 2 x free Jacobian of projecting the ray of `pixel` (fixed in the camera frame) with
+/// respect to the free intrinsics.
+cv::Mat projectionJacobian(const CameraIntrinsics& in, const std::vector<bool>& fitted,
+                           const cv::Point2d& pixel) {
   const Projection p = projectWithJacobians(pixelRays(in, {pixel}), zero3(), zero3(), in);
-  const cv::Mat g = intrinsicColumns(p.intrinsics, freeParameters(fitted));
+  return intrinsicColumns(p.intrinsics, freeParameters(fitted));
+}
+
+cv::Matx22d covarianceThrough(const cv::Mat& g, const cv::Mat& cov) {
   const cv::Mat c = g * cov * g.t();
   return cv::Matx22d(c.at<double>(0, 0), c.at<double>(0, 1), c.at<double>(1, 0),
                      c.at<double>(1, 1));
+}
+
+/// The larger eigenvalue of a symmetric 2x2 covariance.
+double worstVariance(const cv::Matx22d& s) {
+  return 0.5 * (s(0, 0) + s(1, 1)) + std::hypot(0.5 * (s(0, 0) - s(1, 1)), s(0, 1));
+}
+
+}  // namespace
+
+cv::Matx22d projectionCovariance(const CameraIntrinsics& in, const std::vector<bool>& fitted,
+                                 const cv::Mat& cov, const cv::Point2d& pixel) {
+  return covarianceThrough(projectionJacobian(in, fitted, pixel), cov);
 }
 
 std::vector<cv::Point2d> ImageGrid::centres(int width, int height) const {
@@ -161,9 +180,13 @@ bool consistent(const std::vector<std::vector<cv::Point3f>>& object_points,
 
 /// The intrinsics' information at the fit: J^T J over the intrinsics and each view's pose, the
 /// poses eliminated as they are found (a Schur complement: U - sum_v W_v V_v^-1 W_v^T), with the
-/// sum of the squared residuals and their count.
+/// sum of the squared residuals and their count; and the sum over views of each view's score
+/// outer product, s_v s_v^T with s_v = A_v^T r_v (A_v: the view's intrinsics Jacobian, r_v its
+/// residuals; at the optimum r_v is orthogonal to the view's pose Jacobian, so the pose needs no
+/// elimination here).
 struct Information {
   cv::Mat intrinsics;
+  cv::Mat view_scores;
   double squared = 0;
   int residuals = 0;
 };
@@ -174,16 +197,22 @@ Information information(const std::vector<std::vector<cv::Point3f>>& object_poin
   const int p = static_cast<int>(free.size());
   Information n;
   n.intrinsics = cv::Mat::zeros(p, p, CV_64F);
+  n.view_scores = cv::Mat::zeros(p, p, CV_64F);
   for (size_t v = 0; v < object_points.size(); ++v) {
     const std::vector<cv::Point3d> obj(object_points[v].begin(), object_points[v].end());
     const Projection proj = projectWithJacobians(obj, rvecs[v], tvecs[v], in);
+    cv::Mat r(2 * static_cast<int>(proj.points.size()), 1, CV_64F);
     for (size_t i = 0; i < proj.points.size(); ++i) {
       const double dx = proj.points[i].x - image_points[v][i].x;
       const double dy = proj.points[i].y - image_points[v][i].y;
+      r.at<double>(2 * static_cast<int>(i)) = dx;
+      r.at<double>(2 * static_cast<int>(i) + 1) = dy;
       n.squared += dx * dx + dy * dy;
     }
     n.residuals += 2 * static_cast<int>(proj.points.size());
     const cv::Mat a = intrinsicColumns(proj.intrinsics, free);
+    const cv::Mat score = a.t() * r;
+    n.view_scores += score * score.t();
     const cv::Mat& b = proj.pose;
     const cv::Mat w = a.t() * b;
     n.intrinsics += a.t() * a - w * (b.t() * b).inv(cv::DECOMP_SVD) * w.t();
@@ -215,8 +244,15 @@ IntrinsicsCovariance intrinsicsCovariance(
   const int dof = n.residuals - p - 6 * static_cast<int>(object_points.size());
   if (dof <= 0) return out;
   const double variance = n.squared / dof;
-  out.cov = n.intrinsics.inv(cv::DECOMP_SVD) * variance;
+  const cv::Mat inverse = n.intrinsics.inv(cv::DECOMP_SVD);
+  out.cov = inverse * variance;
   out.corner_noise_px = std::sqrt(variance);
+  const int views = static_cast<int>(object_points.size());
+  if (views >= 2) {
+    // The small-sample factor of the clustered sandwich (CR1): G / (G - 1) * (N - 1) / (N - K).
+    const double factor = views / (views - 1.0) * (n.residuals - 1.0) / dof;
+    out.view_clustered_cov = inverse * n.view_scores * inverse * factor;
+  }
   out.valid = true;
   return out;
 }
@@ -243,19 +279,24 @@ ProjectionUncertainty projectionUncertainty(const IntrinsicsCovariance& covarian
   out.grid = grid;
   const int rows = grid.rows, cols = grid.cols;
   double sum = 0;
+  const cv::Mat& clustered = covariance.view_clustered_cov;
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
-      const cv::Matx22d s =
-          projectionCovariance(in, fitted, cov, grid.centre(c, r, in.width, in.height));
-      // The larger eigenvalue of the symmetric 2x2 covariance.
-      const double mean = 0.5 * (s(0, 0) + s(1, 1));
-      const double half = std::hypot(0.5 * (s(0, 0) - s(1, 1)), s(0, 1));
-      const double sigma = std::sqrt(std::max(0.0, mean + half));
-      if (!std::isfinite(mean + half)) {  // no ray: beyond where the model maps
+      const cv::Mat g = projectionJacobian(in, fitted, grid.centre(c, r, in.width, in.height));
+      // The larger of the two estimates: the corners' noise taken as independent, and the views'
+      // own scatter.
+      const double independent = worstVariance(covarianceThrough(g, cov));
+      double variance = independent;
+      if (!clustered.empty() && std::isfinite(variance))
+        variance = std::max(variance, worstVariance(covarianceThrough(g, clustered)));
+      if (!std::isfinite(variance)) {  // no ray: beyond where the model maps
         out.sigma_px.push_back(std::nan(""));
+        out.independent_sigma_px.push_back(std::nan(""));
         ++out.unmapped;
         continue;
       }
+      const double sigma = std::sqrt(std::max(0.0, variance));
+      out.independent_sigma_px.push_back(std::sqrt(std::max(0.0, independent)));
       out.sigma_px.push_back(sigma);
       sum += sigma * sigma;
       out.worst_px = std::max(out.worst_px, sigma);

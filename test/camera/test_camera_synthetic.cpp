@@ -1048,3 +1048,29 @@ TEST(ModelChoice, AFisheyeLensFromARobotsViews) {
     if (std::isfinite(d)) worst_px = std::max(worst_px, d);
   EXPECT_LT(worst_px, 0.6);
 }
+
+// The lens models fitted on several threads: the same choice, to the last bit, as one after the
+// other (three models on a robot's views, one refused).
+TEST(ModelChoice, TheSameChoiceOnOneThreadAsOnSeveral) {
+  const std::string dir = std::string(AUTOCAL_SOURCE_DIR);
+  cv::Size size;
+  const auto views = readViews(dir + "/test/camera/fisheye_views_opencv_start_fails.txt", &size);
+  const CameraCalibrationConfig config =
+      loadStageCameraConfig(dir + "/config/camera_calibration.yaml", "7x5", 0.031);
+  CalibrationOptions o = config.calibration;
+  o.initial_camera_matrix = cv::Matx33d(305.57, 0, 303.08, 0, 308.83, 231.88, 0, 0, 1);
+  o.threads = 1;
+  const ModelChoice one = calibrateChoosingModel(views, size, config.board, o, config.quality_gate);
+  o.threads = 3;
+  const ModelChoice three =
+      calibrateChoosingModel(views, size, config.board, o, config.quality_gate);
+  ASSERT_EQ(one.passed, three.passed);
+  EXPECT_FALSE(one.refused.empty());
+  EXPECT_EQ(one.refusals("; "), three.refusals("; "));
+  const CameraIntrinsics &a = one.result.intrinsics, &b = three.result.intrinsics;
+  EXPECT_EQ(a.distortion_model, b.distortion_model);
+  EXPECT_EQ(a.cameraMatrix(), b.cameraMatrix());
+  EXPECT_EQ(a.distortion_coefficients, b.distortion_coefficients);
+  EXPECT_EQ(one.result.uncertainty.sigma_px, three.result.uncertainty.sigma_px);
+  EXPECT_EQ(one.result.halves.rms_px, three.result.halves.rms_px);
+}

@@ -88,6 +88,10 @@ struct CalibrationOptions {
   /// views all at one height in the image can end in a wrong minimum (the simulator's sweep:
   /// fx 703 px for a true 318, RMS 1 px).
   std::optional<cv::Matx33d> initial_camera_matrix;
+  /// The lens models (calibrateChoosingModel, and the first fits the corners are refined through)
+  /// are fitted on up to this many threads at once, one model each; 0: one per core. The result
+  /// is the same for any number.
+  int threads = 0;
   /// Predict the projection uncertainty and cross-validate the halves (CalibrationResult's
   /// uncertainty and halves; two more fits). Off for a first fit that only has to explain the
   /// corners where they were seen.

@@ -10,6 +10,7 @@
 
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
+#include "autocal/parallel.h"
 
 namespace autocal {
 namespace camera {
@@ -889,18 +890,20 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
                                   DistortionModel::kEquidistant})
     if (std::find(models.begin(), models.end(), m) == models.end()) models.push_back(m);
   std::vector<CalibrationResult> result(models.size());
-  std::vector<bool> fitted(models.size(), false);
+  std::vector<char> fitted(models.size(), 0);  // not vector<bool>: set from several threads
   std::vector<std::vector<std::string>> reasons(models.size());
-  for (size_t k = 0; k < models.size(); ++k) {
+  // Each model on its own thread (CalibrationOptions::threads): a model's fits use nothing of
+  // another's, so the choice is the same as fitted one after the other.
+  forEachIndex(models.size(), options.threads, [&](size_t k) {
     CalibrationOptions o = options;
     o.model = models[k];
     try {
       result[k] = calibrate(views, image_size, board, o);
-      fitted[k] = true;
+      fitted[k] = 1;
     } catch (const CalibrationError& e) {
       if (k == 0) throw;  // the views themselves cannot determine a model
       reasons[k] = {std::string("the fit failed: ") + e.what()};
-      continue;
+      return;
     }
     reasons[k] = checkQuality(result[k], gate);
     // A term the significance kept on all views may be one the halves of them disagree on: it
@@ -934,7 +937,7 @@ ModelChoice calibrateChoosingModel(const std::vector<std::vector<cv::Point2f>>& 
     }
     if (!reasons[k].empty() && halvesDisagree(result[k], gate))
       dropViewsTheHalvesDisagreeOver(views, image_size, board, o, gate, &result[k], &reasons[k]);
-  }
+  });
   const auto passes = [&](size_t k) { return fitted[k] && reasons[k].empty(); };
   const auto sureness = [&](size_t k) {
     return result[k].uncertainty.valid ? result[k].uncertainty.rms_px

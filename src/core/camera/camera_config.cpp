@@ -43,6 +43,7 @@ void CameraCalibrationConfig::validate() const {
               "must be > 0");
   checkConfig(selection.max_distance_m > 0, "view_selection.max_distance_m", "must be > 0");
   checkConfig(calibration.min_views >= 4, "calibration.min_views", "must be >= 4");
+  checkConfig(calibration.threads >= 0, "calibration.threads", "must be >= 0 (0: one per core)");
   checkConfig(calibration.min_term_significance > 0, "calibration.min_term_significance",
               "must be > 0");
   checkConfig(calibration.selection_margin >= 0, "calibration.selection_margin", "must be >= 0");
@@ -160,6 +161,7 @@ CameraCalibrationConfig loadCameraCalibrationConfig(const std::string& path) {
     c.calibration.max_halves_outlier_views =
         k.optional<int>("max_halves_outlier_views", c.calibration.max_halves_outlier_views);
     c.calibration.min_kept_fraction = k.required<double>("min_kept_fraction");
+    c.calibration.threads = k.optional<int>("threads", c.calibration.threads);
     k.finish();
   }
   {

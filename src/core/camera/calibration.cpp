@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <optional>
 
+#include "autocal/camera/pinhole_fit.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/parallel.h"
@@ -174,7 +175,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       f.rms_px = fisheyeCalibrate(obj_d, img_d, size, k, d, f.rvecs, f.tvecs, flags, criteria);
       fisheye_fitted = {true, true, true, true, true, true,
                         !(flags & cv::fisheye::CALIB_FIX_K3), !(flags & cv::fisheye::CALIB_FIX_K4)};
-    } else {
+    } else if (opencv_default_criteria) {
       cv::Mat std_int, std_ext, per_view;
       f.rms_px = cv::calibrateCamera(obj, img, size, k, d, f.rvecs, f.tvecs, std_int, std_ext,
                                      per_view, flags, criteria);
@@ -182,6 +183,11 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
                     std_int.at<double>(3)};
       for (size_t i = 0; i < distortionCount(model); ++i)
         f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
+    } else {
+      // cv::calibrateCamera's fit with the poses eliminated in each step (pinhole_fit.h).
+      const PinholeFit p = fitPinhole(obj, img, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+      f.rms_px = p.rms_px;
+      f.std_devs = p.std_devs;
     }
   } catch (const cv::Exception& e) {
     throw CalibrationError(std::string("OpenCV could not fit the model: ") + e.what());

@@ -4,7 +4,7 @@ target_sources(autocal_camera PRIVATE
   src/core/camera/lens_refinement.cpp
   src/core/camera/view_selection.cpp
   src/core/camera/calibration.cpp
-  src/core/camera/pinhole_fit.cpp
+  src/core/camera/joint_fit.cpp
   src/core/camera/projection_uncertainty.cpp
   src/core/camera/camera_config.cpp
   src/core/camera/calibration_files.cpp

@@ -15,6 +15,7 @@
 #include "autocal/camera/camera_config.h"
 #include "autocal/camera/chessboard.h"
 #include "autocal/camera/focus_meter.h"
+#include "autocal/camera/joint_fit.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/sim/camera_model.h"
@@ -152,9 +153,10 @@ TEST(CameraSynthetic, RationalAndFisheyeOptions) {
   }
 }
 
-// OpenCV's fisheye fit places every view with its starting model first; from a start far from
-// the lens (here a focal length twice too long) it cannot place them and throws, though the views
-// fit well: the fit starts again from a start that can.
+// The fisheye fit places every view with its starting model first; from a start far from the
+// lens (here a focal length twice too long) OpenCV's fisheye fit could not place them and threw,
+// though the views fit well: where a view cannot be placed, the fit starts again from a start
+// that can.
 TEST(CameraSynthetic, FisheyeFitRecoversFromAStartThatCannotPlaceTheViews) {
   Truth t;
   t.model = DistortionModel::kEquidistant;
@@ -353,8 +355,7 @@ std::vector<Pose> boardPoses(const Truth& t, int count, double row_min, double r
 /// the column, by Gaussian offsets of that deviation: an error alike along a line of corners, as
 /// a detector's is where the edges' phase on the pixel grid is alike.
 std::vector<std::vector<cv::Point2f>> observe(const Truth& t, const std::vector<Pose>& poses,
-                                              double noise_px, unsigned seed,
-                                              double line_px = 0) {
+                                              double noise_px, unsigned seed, double line_px = 0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0, noise_px), line(0, line_px);
   std::vector<std::vector<cv::Point2f>> views;
@@ -631,7 +632,8 @@ TEST(ModelChoice, ACornerDetectedWrongDoesNotChooseTheModel) {
   ASSERT_TRUE(choice.passed) << choice.refusals("; ");
   EXPECT_EQ(distortionModelName(choice.result.intrinsics.distortion_model), "plumb_bob")
       << choice.result.refused_models;
-  const std::vector<double> d = projectionDifferences(lensOf(t), choice.result.intrinsics, ImageGrid{16, 12});
+  const std::vector<double> d =
+      projectionDifferences(lensOf(t), choice.result.intrinsics, ImageGrid{16, 12});
   EXPECT_LT(*std::max_element(d.begin(), d.end(), [](double a, double b) { return !(a >= b); }),
             2.0);  // a NaN is the largest
 }
@@ -944,7 +946,6 @@ TEST(CameraConfig, ShippedConfigLoadsAndMatchesDefaults) {
   EXPECT_EQ(parseBoardSize("9x6"), cv::Size(9, 6));
 }
 
-
 // One view the others disagree with, from a run of the camera stage on the wide lens
 // (wide_views_one_disagrees.txt): with it the significance keeps k3 and the halves of the views lie
 // 5.3 times their uncertainty apart, so every lens model was refused. The shipped config leaves
@@ -962,8 +963,8 @@ TEST(ModelChoice, AViewTheHalvesDisagreeOverIsLeftOutBeforeTheModelIsRefused) {
   std::vector<std::vector<cv::Point2f>> views(count, std::vector<cv::Point2f>(35));
   for (auto& view : views)
     for (auto& c : view) ASSERT_TRUE(in >> c.x >> c.y);
-  const CameraCalibrationConfig config = loadStageCameraConfig(
-      dir + "/config/camera_calibration.yaml", "7x5", 0.031);
+  const CameraCalibrationConfig config =
+      loadStageCameraConfig(dir + "/config/camera_calibration.yaml", "7x5", 0.031);
   const sim::RobotConfig robot = sim::loadRobotConfig(dir + "/sim/config/fleet/robot_wide.yaml");
   CalibrationOptions o = config.calibration;
   o.initial_camera_matrix = robot.camera.nominal.cameraMatrix();  // camera_info, as the node does
@@ -1073,4 +1074,63 @@ TEST(ModelChoice, TheSameChoiceOnOneThreadAsOnSeveral) {
   EXPECT_EQ(a.distortion_coefficients, b.distortion_coefficients);
   EXPECT_EQ(one.result.uncertainty.sigma_px, three.result.uncertainty.sigma_px);
   EXPECT_EQ(one.result.halves.rms_px, three.result.halves.rms_px);
+}
+
+// The joint fits reach OpenCV's own minimum: cv::calibrateCamera's for plumb_bob (with its
+// standard deviations) and cv::fisheye::calibrate's for equidistant, on the same noisy views from
+// the same start.
+TEST(JointFit, TheMinimumOpenCvReaches) {
+  const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-7);
+  const cv::Matx33d start(400, 0, 310, 0, 400, 250, 0, 0, 1);
+  {
+    const Truth t;
+    const auto img = syntheticViews(t, 25, 0.2, 11);
+    const std::vector<std::vector<cv::Point3f>> obj(img.size(), testBoard().points());
+    cv::Mat k_cv(start), d_cv = cv::Mat::zeros(1, 5, CV_64F), k(start), d = d_cv.clone();
+    std::vector<cv::Mat> r_cv, t_cv, r, tv;
+    cv::Mat sd_cv, sd_ext, per_view;
+    const int flags = cv::CALIB_USE_INTRINSIC_GUESS;
+    const double rms_cv = cv::calibrateCamera(obj, img, kImage, k_cv, d_cv, r_cv, t_cv, sd_cv,
+                                              sd_ext, per_view, flags, criteria);
+    const JointFit fit = fitPinhole(obj, img, kImage, k, d, r, tv, flags, criteria);
+    EXPECT_NEAR(fit.rms_px, rms_cv, 1e-6);
+    for (const cv::Point entry :
+         {cv::Point(0, 0), cv::Point(1, 1), cv::Point(2, 0), cv::Point(2, 1)})
+      EXPECT_NEAR(k.at<double>(entry), k_cv.at<double>(entry), 0.01) << entry;
+    for (int i = 0; i < 5; ++i) EXPECT_NEAR(d.at<double>(i), d_cv.at<double>(i), 1e-4) << i;
+    ASSERT_EQ(fit.std_devs.size(), 9u);
+    for (int i = 0; i < 9; ++i)
+      EXPECT_NEAR(fit.std_devs[static_cast<size_t>(i)], sd_cv.at<double>(i),
+                  0.01 * sd_cv.at<double>(i))
+          << i;
+    ASSERT_EQ(r.size(), r_cv.size());
+    EXPECT_LT(cv::norm(tv[3] - t_cv[3]), 1e-5);
+  }
+  {
+    Truth t;
+    t.model = DistortionModel::kEquidistant;
+    t.k = cv::Matx33d(300, 0, 320, 0, 302, 236, 0, 0, 1);
+    t.d = {0.02, -0.01, 0.004, 0.0};
+    const auto views = syntheticViews(t, 25, 0.2, 12);
+    std::vector<std::vector<cv::Point3d>> obj;
+    std::vector<std::vector<cv::Point2d>> img;
+    const std::vector<cv::Point3f> board = testBoard().points();
+    for (const auto& v : views) {
+      obj.emplace_back(board.begin(), board.end());
+      img.emplace_back(v.begin(), v.end());
+    }
+    const cv::Matx33d near(310, 0, 315, 0, 310, 240, 0, 0, 1);
+    cv::Mat k_cv(near), d_cv = cv::Mat::zeros(4, 1, CV_64F), k(near), d = d_cv.clone();
+    std::vector<cv::Mat> r_cv, t_cv, r, tv;
+    const int flags = cv::fisheye::CALIB_USE_INTRINSIC_GUESS |
+                      cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW;
+    const double rms_cv =
+        cv::fisheye::calibrate(obj, img, kImage, k_cv, d_cv, r_cv, t_cv, flags, criteria);
+    const JointFit fit = fitEquidistant(obj, img, kImage, k, d, r, tv, flags, criteria);
+    EXPECT_NEAR(fit.rms_px, rms_cv, 1e-5);
+    for (const cv::Point entry :
+         {cv::Point(0, 0), cv::Point(1, 1), cv::Point(2, 0), cv::Point(2, 1)})
+      EXPECT_NEAR(k.at<double>(entry), k_cv.at<double>(entry), 0.01) << entry;
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(d.at<double>(i), d_cv.at<double>(i), 1e-4) << i;
+  }
 }

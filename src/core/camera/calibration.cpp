@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <optional>
 
-#include "autocal/camera/pinhole_fit.h"
+#include "autocal/camera/joint_fit.h"
 #include "autocal/camera/view_selection.h"
 #include "autocal/errors.h"
 #include "autocal/parallel.h"
@@ -103,13 +103,13 @@ cv::Mat pinholeStart(const std::vector<std::vector<cv::Point3d>>& obj,
   }
 }
 
-/// cv::fisheye::calibrate, started from k, d when `flags` asks for the guess. OpenCV's fisheye
-/// fit first places every view with the starting model (its InitExtrinsics); a start far from the
-/// lens can leave a view's corners unplaceable and the fit throws ("norm_u1 > 0"), though the
+/// The equidistant fit (fitEquidistant, cv::fisheye::calibrate's least squares), started from k,
+/// d when `flags` asks for the guess. The fit first places every view with the starting model; a
+/// start far from the lens can leave a view's corners unplaceable and the fit throws, though the
 /// views fit well: a warm start whose k3, k4 ran off on views that do not pin them, a focal length
 /// twice too long, or OpenCV's own start, whose focal length (the image's larger side over π)
 /// maps no ray in front of the camera beyond f·π/2 from the centre (320 px for 640 x 480): a
-/// robot's view with a corner 322 px out made it throw (not every such view does). Then it is
+/// robot's view with a corner 322 px out made OpenCV's fit throw ("norm_u1 > 0"). Then it is
 /// started again: from the same camera matrix without distortion, from OpenCV's own start, and
 /// from a pinhole camera matrix fitted to the views' homographies; the error of the first try is
 /// rethrown when every start fails.
@@ -120,7 +120,7 @@ double fisheyeCalibrate(const std::vector<std::vector<cv::Point3d>>& obj,
   const cv::Mat k_start = k.clone(), d_start = d.clone();
   const bool guessed = (flags & cv::fisheye::CALIB_USE_INTRINSIC_GUESS) != 0;
   try {
-    return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, flags, criteria);
+    return fitEquidistant(obj, img, size, k, d, rvecs, tvecs, flags, criteria).rms_px;
   } catch (const cv::Exception& first) {
     std::vector<int> retries;
     if (guessed && cv::countNonZero(d_start) > 0) retries.push_back(flags);
@@ -134,7 +134,7 @@ double fisheyeCalibrate(const std::vector<std::vector<cv::Point3d>>& obj,
       k = (!pinhole.empty() && last ? pinhole : k_start).clone();
       d = cv::Mat::zeros(4, 1, CV_64F);
       try {
-        return cv::fisheye::calibrate(obj, img, size, k, d, rvecs, tvecs, retries[i], criteria);
+        return fitEquidistant(obj, img, size, k, d, rvecs, tvecs, retries[i], criteria).rms_px;
       } catch (const cv::Exception&) {
       }
     }
@@ -185,7 +185,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
         f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
     } else {
       // cv::calibrateCamera's fit with the poses eliminated in each step (pinhole_fit.h).
-      const PinholeFit p = fitPinhole(obj, img, size, k, d, f.rvecs, f.tvecs, flags, criteria);
+      const JointFit p = fitPinhole(obj, img, size, k, d, f.rvecs, f.tvecs, flags, criteria);
       f.rms_px = p.rms_px;
       f.std_devs = p.std_devs;
     }
@@ -199,8 +199,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
     f.intrinsics.distortion_coefficients[static_cast<size_t>(i)] = d.at<double>(i);
   }
   if (!fisheye_fitted.empty()) {
-    // OpenCV's fisheye calibration reports no standard deviations: the covariance at its
-    // result gives them (over repeated synthetic fits, its results scatter as that covariance
+    // The fisheye fit reports no standard deviations: the covariance at its result gives them (over repeated synthetic fits, its results scatter as that covariance
     // says: CameraUncertainty.FisheyePredictionMatchesRepeatedCalibrations).
     f.covariance = intrinsicsCovariance(obj, img, f.rvecs, f.tvecs, f.intrinsics, fisheye_fitted);
     f.std_devs = f.covariance.std_devs(fisheye_fitted.size());

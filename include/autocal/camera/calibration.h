@@ -1,5 +1,6 @@
-// Intrinsic calibration from kept chessboard views (Zhang's method through OpenCV, paper 000 §1):
-// pinhole + plumb_bob by default, rational_polynomial and fisheye (equidistant) as options.
+// Intrinsic calibration from kept chessboard views (Zhang's method, paper 000 §1: OpenCV's least
+// squares, solved in joint_fit.h): pinhole + plumb_bob by default, rational_polynomial and fisheye
+// (equidistant) as options.
 // Distortion terms the views cannot constrain are held fixed (chosen by held-out error), outlier
 // views and corners are dropped and the model refitted, and a quality gate decides whether a result
 // may replace a calibration file.

@@ -184,7 +184,7 @@ Fit fit(const std::vector<Points3>& obj, const std::vector<Points2>& img, const 
       for (size_t i = 0; i < distortionCount(model); ++i)
         f.std_devs.push_back(std_int.at<double>(4 + static_cast<int>(i)));
     } else {
-      // cv::calibrateCamera's fit with the poses eliminated in each step (pinhole_fit.h).
+      // cv::calibrateCamera's fit with the poses eliminated in each step (joint_fit.h).
       const JointFit p = fitPinhole(obj, img, size, k, d, f.rvecs, f.tvecs, flags, criteria);
       f.rms_px = p.rms_px;
       f.std_devs = p.std_devs;

@@ -241,8 +241,7 @@ JointFit solve(const Problem& problem, Parameters p, size_t corners,
     for (const Vector6& s : pose_steps) change += s.squaredNorm();
     const double relative = std::sqrt(change / std::max(p.squaredNorm(), DBL_MIN));
     p = next;
-    // A small step taken under heavy damping is not convergence: the damping shrinks it (a
-    // misfit lens's valley stalled there 5 % above its minimum).
+    // A small step taken under heavy damping is not convergence: the damping shrinks it.
     const bool converged = relative < epsilon && lambda <= kConvergedLambda;
     lambda = std::max(lambda / 10, 1e-16);
     normal = problem.normal(p);

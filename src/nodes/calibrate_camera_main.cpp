@@ -15,6 +15,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -33,6 +34,7 @@
 #include "autocal/exit_codes.h"
 #include "autocal/io/format.h"
 #include "autocal/io/image_file.h"
+#include "autocal/parallel.h"
 #include "autocal_ros/msg_conversion.h"
 
 namespace fs = std::filesystem;
@@ -115,11 +117,67 @@ std::string defaultConfigPath() {
   return ros::package::getPath("autocal") + "/config/camera_calibration.yaml";
 }
 
-// Feeds frames (image, name) to `sink`; throws InputError for unusable input.
-using FrameSink =
-    std::function<void(const cv::Mat&, const std::string&, size_t index, size_t total)>;
+// A frame of the input: its name, its place, and how to decode it (an empty image: undecodable).
+struct PendingFrame {
+  std::string name;
+  size_t index = 0;
+  size_t total = 0;  ///< frames in the input
+  std::function<cv::Mat()> decode;
+};
 
-void readImages(const std::string& pattern, const FrameSink& sink) {
+// Takes a decoded frame (empty: undecodable) with the boards found in it, in the input's order.
+using FrameSink =
+    std::function<void(const PendingFrame&, const cv::Mat& image, DetectedFrame detected)>;
+
+// Frames are decoded and their boards detected a batch at a time, one frame per thread, and then
+// handed to the sink in order: the views kept are the same as one frame after another, and most
+// of the time before the fit is the decoding and the detection.
+class FrameBatches {
+ public:
+  FrameBatches(const ViewCollector& collector, int threads, const FrameSink& sink)
+      : collector_(collector),
+        threads_(threads),
+        batch_size_(4 * threadCount(1000, threads)),
+        sink_(sink) {}
+
+  void add(PendingFrame frame) {
+    batch_.push_back(std::move(frame));
+    if (batch_.size() >= batch_size_) flush();
+  }
+
+  // A frame that fails to decode or detect (an unreadable file) throws here, after the frames
+  // before it have reached the sink.
+  void flush() {
+    const size_t n = batch_.size();
+    std::vector<cv::Mat> images(n);
+    std::vector<DetectedFrame> detected(n);
+    std::vector<std::exception_ptr> errors(n);
+    forEachIndex(n, threads_, [&](size_t k) {
+      try {
+        images[k] = batch_[k].decode();
+        if (!images[k].empty()) detected[k] = collector_.detect(images[k], batch_[k].name);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+    });
+    std::vector<PendingFrame> batch = std::move(batch_);
+    batch_.clear();
+    for (size_t k = 0; k < n; ++k) {
+      if (errors[k]) std::rethrow_exception(errors[k]);
+      sink_(batch[k], images[k], std::move(detected[k]));
+    }
+  }
+
+ private:
+  const ViewCollector& collector_;
+  int threads_;
+  size_t batch_size_;
+  FrameSink sink_;
+  std::vector<PendingFrame> batch_;
+};
+
+// The files matching `pattern`, in name order; throws InputError when none does.
+std::vector<std::string> imageFiles(const std::string& pattern) {
   glob_t g;
   const int rc = ::glob(pattern.c_str(), 0, nullptr, &g);
   std::vector<std::string> files;
@@ -128,15 +186,21 @@ void readImages(const std::string& pattern, const FrameSink& sink) {
   }
   globfree(&g);
   if (files.empty()) throw InputError("--images '" + pattern + "': no file matches");
-  for (size_t i = 0; i < files.size(); ++i) {
-    // Grey: the detection and the calibration use grey only (and it decodes faster).
-    const cv::Mat img = readImageFile(files[i], cv::IMREAD_GRAYSCALE);
-    sink(img, files[i], i, files.size());
-  }
+  return files;
 }
 
-void readBag(const std::string& path, const std::string& topic, const FrameSink& sink,
-             std::vector<std::string>& undecodable) {
+void readImages(const std::vector<std::string>& files, FrameBatches& frames) {
+  for (size_t i = 0; i < files.size(); ++i) {
+    const std::string file = files[i];
+    // Grey: the detection and the calibration use grey only (and it decodes faster).
+    frames.add(
+        {file, i, files.size(), [file] { return readImageFile(file, cv::IMREAD_GRAYSCALE); }});
+  }
+  frames.flush();
+}
+
+// Returns the number of frames on `topic`.
+size_t readBag(const std::string& path, const std::string& topic, FrameBatches& frames) {
   rosbag::Bag bag;
   try {
     bag.open(path, rosbag::bagmode::Read);
@@ -160,36 +224,37 @@ void readBag(const std::string& path, const std::string& topic, const FrameSink&
     for (const rosbag::MessageInstance& m : view) {
       char name[160];
       std::snprintf(name, sizeof name, "%s@%.3f", topic.c_str(), m.getTime().toSec());
-      cv::Mat img;
+      std::function<cv::Mat()> decode;
       if (auto c = m.instantiate<sensor_msgs::CompressedImage>()) {
-        // A frame cut short decodes with grey rows: refused as undecodable.
-        if (!c->data.empty() && truncatedImage(c->data).empty())
-          img = cv::imdecode(c->data, cv::IMREAD_COLOR);
+        decode = [c] {
+          // A frame cut short decodes with grey rows: refused as undecodable.
+          if (c->data.empty() || !truncatedImage(c->data).empty()) return cv::Mat();
+          return cv::imdecode(c->data, cv::IMREAD_COLOR);
+        };
       } else if (auto r = m.instantiate<sensor_msgs::Image>()) {
-        try {
-          img = cv_bridge::toCvCopy(r, "bgr8")->image;
-        } catch (const cv_bridge::Exception&) {
-        }
+        decode = [r] {
+          try {
+            return cv_bridge::toCvCopy(r, "bgr8")->image;
+          } catch (const cv_bridge::Exception&) {
+            return cv::Mat();
+          }
+        };
       } else {
         throw InputError(path + ": topic '" + topic + "' carries " + m.getDataType() +
                          ", not sensor_msgs/CompressedImage or sensor_msgs/Image");
       }
-      if (img.empty()) {
-        // A stream may carry a broken frame: refuse that frame, keep going.
-        undecodable.push_back(name);
-      } else {
-        sink(img, name, index, total);
-      }
+      frames.add({name, index, total, std::move(decode)});
       ++index;
     }
   } catch (const ros::Exception& e) {
     // rosbag and deserialisation errors: a bag cut off or corrupt in the middle: what was read so
     // far is not a complete input.
+    frames.flush();
     throw InputError(path + ": the bag is corrupt or truncated after " + std::to_string(index) +
                      " of " + std::to_string(total) + " frames: " + e.what());
   }
-  if (undecodable.size() == total)
-    throw InputError(path + ": no frame on '" + topic + "' could be decoded");
+  frames.flush();
+  return total;
 }
 
 int run(const Args& args) {
@@ -212,10 +277,18 @@ int run(const Args& args) {
   std::map<int, cv::Mat> kept_frames;
   std::vector<std::string> refused;  // "name: reason"
   int frames_without_board = 0;
-  auto sink = [&](const cv::Mat& img, const std::string& name, size_t i, size_t total) {
+  std::vector<std::string> undecodable;
+  auto sink = [&](const PendingFrame& frame, const cv::Mat& img, DetectedFrame detected) {
+    const std::string& name = frame.name;
+    const size_t i = frame.index, total = frame.total;
+    if (img.empty()) {
+      // A stream may carry a broken frame: refuse that frame, keep going.
+      undecodable.push_back(name);
+      return;
+    }
     const int frame_index = collector.frames();
     const size_t fit_views_before = collector.calibrationViews().size();
-    const FrameResult r = collector.addFrame(img, name);
+    const FrameResult r = collector.add(std::move(detected), name);
     if (collector.calibrationViews().size() > fit_views_before) kept_frames[frame_index] = img;
     std::string what;
     if (r.boards_found == 0) {
@@ -242,11 +315,13 @@ int run(const Args& args) {
       std::fflush(stdout);
     }
   };
-  std::vector<std::string> undecodable;
+  FrameBatches frames(collector, config.calibration.threads, sink);
   if (!args.images.empty()) {
-    readImages(args.images, sink);
+    readImages(imageFiles(args.images), frames);
   } else {
-    readBag(args.bag, args.topic, sink, undecodable);
+    const size_t total = readBag(args.bag, args.topic, frames);
+    if (undecodable.size() == total)
+      throw InputError(args.bag + ": no frame on '" + args.topic + "' could be decoded");
     for (const auto& u : undecodable) refused.push_back(u + ": cannot decode the image");
   }
   const Coverage coverage = collector.coverage();

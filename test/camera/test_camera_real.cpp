@@ -13,6 +13,7 @@
 #include "autocal/camera/calibration.h"
 #include "autocal/camera/chessboard.h"
 #include "autocal/camera/view_selection.h"
+#include "autocal/parallel.h"
 
 using namespace autocal::camera;
 
@@ -70,7 +71,8 @@ TEST(CameraRealPhotos, FocalLengthWithinTwoPercentOfOpenCvReference) {
   ASSERT_EQ(photos().size(), 13u) << "opencv-doc's left*.jpg are missing (make deps)";
   const Photos& p = loadPhotos();
   ASSERT_EQ(p.autocal_corners.size(), 13u);
-  const CalibrationResult r = calibrate(p.autocal_corners, p.size, BoardSpec(), CalibrationOptions());
+  const CalibrationResult r =
+      calibrate(p.autocal_corners, p.size, BoardSpec(), CalibrationOptions());
   std::printf(
       "autocal: fx %.2f fy %.2f cx %.2f cy %.2f rms %.3f px, terms: %s, %zu views, %d corners "
       "dropped\n",
@@ -129,4 +131,53 @@ TEST(CameraRealPhotos, TwoRealBoardsInOneFrameAreSeparated) {
   }
   EXPECT_EQ(left, 1);
   EXPECT_EQ(right, 1);
+}
+
+TEST(CameraRealPhotos, FramesDetectedOnThreadsAreKeptAsOneAfterAnother) {
+  // The offline tool detects a batch of frames on several threads and adds them in order: the
+  // views kept must be those of addFrame one frame after another. With the default novelty,
+  // left12.jpg is refused as too similar to left08.jpg, so the order matters.
+  const auto files = photos();
+  ASSERT_GE(files.size(), 13u);
+  std::vector<cv::Mat> images;
+  for (const std::string& f : files) images.push_back(cv::imread(f, cv::IMREAD_GRAYSCALE));
+  for (const bool keep_sharp : {true, false}) {
+    ViewSelectionOptions sel;
+    sel.keep_sharp_views = keep_sharp;
+    ViewCollector one{BoardSpec(), ChessboardDetectorOptions(), sel};
+    ViewCollector batch{BoardSpec(), ChessboardDetectorOptions(), sel};
+    std::vector<FrameResult> sequential;
+    for (size_t i = 0; i < images.size(); ++i)
+      sequential.push_back(one.addFrame(images[i], files[i]));
+    std::vector<DetectedFrame> detected(images.size());
+    autocal::forEachIndex(images.size(), 2,
+                          [&](size_t i) { detected[i] = batch.detect(images[i], files[i]); });
+    int refused = 0;
+    for (size_t i = 0; i < images.size(); ++i) {
+      const FrameResult r = batch.add(std::move(detected[i]), files[i]);
+      ASSERT_EQ(r.decisions.size(), sequential[i].decisions.size()) << files[i];
+      for (size_t b = 0; b < r.decisions.size(); ++b) {
+        const ViewDecision &d = r.decisions[b], &s = sequential[i].decisions[b];
+        EXPECT_EQ(d.kept, s.kept) << files[i];
+        EXPECT_EQ(d.sharp, s.sharp) << files[i];
+        EXPECT_EQ(d.reason, s.reason) << files[i];
+        EXPECT_EQ(d.corners, s.corners) << files[i];
+        refused += !d.kept;
+      }
+    }
+    EXPECT_GE(refused, 1) << "no view refused: the order was never tested";
+    const auto same_views = [](const std::vector<CalibrationView>& a,
+                               const std::vector<CalibrationView>& b) {
+      if (a.size() != b.size()) return false;
+      for (size_t i = 0; i < a.size(); ++i)
+        if (a[i].corners != b[i].corners || a[i].source != b[i].source ||
+            a[i].frame_index != b[i].frame_index || a[i].patch.origin != b[i].patch.origin ||
+            a[i].patch.gray.size() != b[i].patch.gray.size() ||
+            (!a[i].patch.gray.empty() && cv::norm(a[i].patch.gray, b[i].patch.gray) != 0))
+          return false;
+      return true;
+    };
+    EXPECT_TRUE(same_views(batch.views(), one.views()));
+    EXPECT_TRUE(same_views(batch.calibrationViews(), one.calibrationViews()));
+  }
 }

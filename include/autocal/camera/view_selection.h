@@ -96,6 +96,23 @@ struct ViewDecision {
   std::vector<cv::Point2f> corners;
 };
 
+/// A board found in a frame, judged on what needs no other frame.
+struct DetectedBoard {
+  std::vector<cv::Point2f> corners;  ///< as detected (the view's judgement uses these)
+  std::vector<cv::Point2f> refined;  ///< sub-pixel refined; only when sharp
+  double edge_width_px = 0;
+  /// Whole, finite, sharp and clear of the image's edge (see ViewSelectionOptions).
+  bool sharp = false;
+  /// Its grey pixels when sharp (ChessboardDetectorOptions::refine_through_lens).
+  BoardPatch patch;
+};
+
+/// The boards ViewCollector::detect found in one frame.
+struct DetectedFrame {
+  cv::Size image_size;
+  std::vector<DetectedBoard> boards;
+};
+
 struct FrameResult {
   int boards_found = 0;
   std::vector<ViewDecision> decisions;
@@ -112,6 +129,13 @@ class ViewCollector {
   /// Detects boards in `image` (8-bit, grey or colour) and keeps the views that are sharp and
   /// new. Throws InputError when the image is empty or of another size than the first one.
   FrameResult addFrame(const cv::Mat& image, const std::string& source);
+  /// addFrame in two parts, so that frames can be detected on several threads and added in
+  /// order with the same result: detect() reads nothing the collector changes (it may run on
+  /// several frames at once while no add() runs); add() judges the boards against the views kept
+  /// so far. detect() throws InputError for an empty image, add() for another size than the first
+  /// frame's.
+  DetectedFrame detect(const cv::Mat& image, const std::string& source) const;
+  FrameResult add(DetectedFrame frame, const std::string& source);
   /// The same for corners found elsewhere (tests, replays): judged but not re-detected.
   ViewDecision addView(const std::vector<cv::Point2f>& corners, const cv::Size& image_size,
                        double edge_width_px, const std::string& source);
@@ -131,14 +155,15 @@ class ViewCollector {
 
  private:
   ViewDecision judge(const std::vector<cv::Point2f>& corners, double edge_width_px);
-  bool usableAndSharp(const std::vector<cv::Point2f>& corners, double edge_width_px) const;
+  bool usableAndSharp(const std::vector<cv::Point2f>& corners, double edge_width_px,
+                      const cv::Size& image_size) const;
   /// Whether a sharp view already has these corners (within 0.001 px each): a repeated frame (a
   /// camera driver that sends its last frame again, a simulator standing still) is not a new
   /// measurement, and counted again it would shrink the fit's uncertainty as if it were.
   bool repeatsSharpView(const std::vector<cv::Point2f>& corners) const;
   /// Why the board's corners are too near the image's edge to trust, or "" (see
   /// ViewSelectionOptions::min_edge_distance_spacings).
-  std::string nearEdge(const std::vector<cv::Point2f>& corners) const;
+  std::string nearEdge(const std::vector<cv::Point2f>& corners, const cv::Size& image_size) const;
 
   BoardSpec board_;
   ChessboardDetectorOptions detector_;

@@ -86,42 +86,60 @@ ViewCollector::ViewCollector(const BoardSpec& board, const ChessboardDetectorOpt
     : board_(board), detector_(detector), selection_(selection) {}
 
 FrameResult ViewCollector::addFrame(const cv::Mat& image, const std::string& source) {
+  return add(detect(image, source), source);
+}
+
+DetectedFrame ViewCollector::detect(const cv::Mat& image, const std::string& source) const {
   if (image.empty()) throw InputError(source + ": empty or undecodable image");
-  if (image_size_.area() == 0) image_size_ = image.size();
-  if (image.size() != image_size_) {
-    throw InputError(source + ": image is " + std::to_string(image.cols) + "x" +
-                     std::to_string(image.rows) + " but earlier ones are " +
+  DetectedFrame frame;
+  frame.image_size = image.size();
+  const cv::Mat gray = toGray(image);
+  for (BoardDetection& board : detectChessboards(gray, board_, detector_)) {
+    DetectedBoard b;
+    b.edge_width_px = edgeWidthPx(gray, board.corners);
+    b.sharp = usableAndSharp(board.corners, b.edge_width_px, frame.image_size);
+    b.corners = board.corners;
+    // The slow sub-pixel refinement only for boards that may be calibrated on.
+    if (b.sharp) {
+      refineCorners(gray, board_, board, detector_);
+      b.refined = std::move(board.corners);
+      if (detector_.refine_through_lens)
+        b.patch = boardPatch(gray, b.refined, detector_.refine_max_half_window_px + 8);
+    }
+    frame.boards.push_back(std::move(b));
+  }
+  return frame;
+}
+
+FrameResult ViewCollector::add(DetectedFrame frame, const std::string& source) {
+  if (image_size_.area() == 0) image_size_ = frame.image_size;
+  if (frame.image_size != image_size_) {
+    throw InputError(source + ": image is " + std::to_string(frame.image_size.width) + "x" +
+                     std::to_string(frame.image_size.height) + " but earlier ones are " +
                      std::to_string(image_size_.width) + "x" + std::to_string(image_size_.height) +
                      " (one calibration needs one image size)");
   }
   const int frame_index = frames_++;
-  const cv::Mat gray = toGray(image);
   FrameResult result;
-  std::vector<BoardDetection> boards = detectChessboards(gray, board_, detector_);
-  result.boards_found = static_cast<int>(boards.size());
-  for (BoardDetection& board : boards) {
-    // Cheap judgement first; the slow sub-pixel refinement only for views that are kept.
-    ViewDecision d = judge(board.corners, edgeWidthPx(gray, board.corners));
-    const bool sharp = usableAndSharp(board.corners, d.edge_width_px);
-    d.sharp = sharp;
-    if (d.kept || (sharp && selection_.keep_sharp_views)) {
-      refineCorners(gray, board_, board, detector_);
-      d.corners = board.corners;
-      if (repeatsSharpView(board.corners)) {
+  result.boards_found = static_cast<int>(frame.boards.size());
+  for (DetectedBoard& board : frame.boards) {
+    ViewDecision d = judge(board.corners, board.edge_width_px);
+    d.sharp = board.sharp;
+    if (d.kept || (board.sharp && selection_.keep_sharp_views)) {
+      d.corners = board.refined;
+      if (repeatsSharpView(board.refined)) {
         d.kept = d.sharp = false;
         d.reason = kRepeatedFrame;
         result.decisions.push_back(d);
         continue;
       }
       CalibrationView v;
-      v.corners = board.corners;
+      v.corners = std::move(board.refined);
       v.params = d.params;
       v.edge_width_px = d.edge_width_px;
       v.source = source;
       v.frame_index = frame_index;
-      if (detector_.refine_through_lens) {
-        v.patch = boardPatch(gray, board.corners, detector_.refine_max_half_window_px + 8);
-      }
+      v.patch = std::move(board.patch);
       if (d.kept) views_.push_back(v);
       if (selection_.keep_sharp_views) sharp_views_.push_back(std::move(v));
     }
@@ -135,7 +153,7 @@ ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
                                     const std::string& source) {
   if (image_size_.area() == 0) image_size_ = image_size;
   ViewDecision d = judge(corners, edge_width_px);
-  d.sharp = usableAndSharp(corners, edge_width_px);
+  d.sharp = usableAndSharp(corners, edge_width_px, image_size_);
   if ((d.kept || d.sharp) && repeatsSharpView(corners)) {
     d.kept = d.sharp = false;
     d.reason = kRepeatedFrame;
@@ -154,13 +172,13 @@ ViewDecision ViewCollector::addView(const std::vector<cv::Point2f>& corners,
   return d;
 }
 
-bool ViewCollector::usableAndSharp(const std::vector<cv::Point2f>& corners,
-                                   double edge_width_px) const {
+bool ViewCollector::usableAndSharp(const std::vector<cv::Point2f>& corners, double edge_width_px,
+                                   const cv::Size& image_size) const {
   if (static_cast<int>(corners.size()) != board_.cornerCount()) return false;
   for (const auto& p : corners) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) return false;
   }
-  return edge_width_px <= selection_.max_edge_width_px && nearEdge(corners).empty();
+  return edge_width_px <= selection_.max_edge_width_px && nearEdge(corners, image_size).empty();
 }
 
 bool ViewCollector::repeatsSharpView(const std::vector<cv::Point2f>& corners) const {
@@ -175,8 +193,9 @@ bool ViewCollector::repeatsSharpView(const std::vector<cv::Point2f>& corners) co
   return false;
 }
 
-std::string ViewCollector::nearEdge(const std::vector<cv::Point2f>& corners) const {
-  if (!(selection_.min_edge_distance_spacings > 0) || image_size_.area() == 0) return "";
+std::string ViewCollector::nearEdge(const std::vector<cv::Point2f>& corners,
+                                    const cv::Size& image_size) const {
+  if (!(selection_.min_edge_distance_spacings > 0) || image_size.area() == 0) return "";
   const int cols = board_.inner_corners.width, rows = board_.inner_corners.height;
   if (static_cast<int>(corners.size()) != cols * rows) return "";
   for (int r = 0; r < rows; ++r) {
@@ -186,11 +205,12 @@ std::string ViewCollector::nearEdge(const std::vector<cv::Point2f>& corners) con
       for (const auto& [dr, dc] : {std::pair{0, 1}, {0, -1}, {1, 0}, {-1, 0}}) {
         const int rr = r + dr, cc = c + dc;
         if (rr < 0 || rr >= rows || cc < 0 || cc >= cols) continue;
-        spacing = std::min(spacing, static_cast<double>(cv::norm(
-                                        p - corners[static_cast<size_t>(rr * cols + cc)])));
+        spacing = std::min(
+            spacing,
+            static_cast<double>(cv::norm(p - corners[static_cast<size_t>(rr * cols + cc)])));
       }
       const double edge = std::min({static_cast<double>(p.x), static_cast<double>(p.y),
-                                    image_size_.width - 1.0 - p.x, image_size_.height - 1.0 - p.y});
+                                    image_size.width - 1.0 - p.x, image_size.height - 1.0 - p.y});
       if (edge < selection_.min_edge_distance_spacings * spacing) {
         char buf[200];
         std::snprintf(buf, sizeof buf,
@@ -226,7 +246,7 @@ ViewDecision ViewCollector::judge(const std::vector<cv::Point2f>& corners, doubl
     d.reason = buf;
     return d;
   }
-  d.reason = nearEdge(corners);
+  d.reason = nearEdge(corners, image_size_);
   if (!d.reason.empty()) return d;
   if (static_cast<int>(views_.size()) >= selection_.max_views) {
     d.reason = "enough views already (" + std::to_string(views_.size()) + ")";

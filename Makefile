@@ -4,7 +4,7 @@
 #               clock two at a time, then the rest alone); ends with "N passed, N failed"
 #   make deps   installs the Debian packages (apt-get; prints the command when not root)
 #   make build  Release build into build/, leaves build/devel/setup.bash
-#   make bench  the benchmarks; writes BENCHMARKS.md figures under build/bench/
+#   make bench  the benchmarks; updates BENCHMARKS.md's measured sections (scripts/bench.sh)
 #   make robustness  the whole calibration in robot mode over drawn robots (scripts/robustness.py)
 
 SHELL := /bin/bash

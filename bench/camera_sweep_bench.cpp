@@ -69,7 +69,7 @@ double percentile(std::vector<double> v, double q) {
 /// over the uncertainty the stage predicted for it.
 void honesty(const std::string& dir, int seeds) {
   std::printf(
-      "\n### Is the predicted uncertainty honest?\n\n"
+      "\n#### Is the predicted uncertainty honest?\n\n"
       "`camera::SweepRun` in `world.yaml` (boards standing and on the floor), %d sweeps per robot "
       "(seeds 1..%d). Per cell of the 16x12 grid of each sweep: the true projection difference "
       "over the predicted sigma in the cell's worst direction. Target: within 3 sigma in at least "

@@ -5,7 +5,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 echo "bench/camera_sweep: five sweeps on the simulator's core, then the node under ROS (about two minutes)" >&2
-taskset -c 0 build/bench/camera_sweep_bench
+sweeps=$(mktemp)
+taskset -c 0 build/bench/camera_sweep_bench > "$sweeps"
+# The sweeps' table and its notes first, then the bench's honesty section (its own heading).
+honesty='^#### Is the predicted uncertainty honest'
+awk -v h="$honesty" '$0 ~ h { exit } { print }' "$sweeps"
 cat <<'NOTE'
 
 Plain OpenCV from its own closed-form start lands in a wrong minimum on most sweeps (views all at
@@ -39,4 +43,6 @@ echo
 echo "Reproduce: \`bash scripts/bench/camera_sweep.sh\` after \`make build\` (the sweeps alone:"
 echo "\`taskset -c 0 build/bench/camera_sweep_bench\`; the node: \`roslaunch autocal camera_sim.launch"
 echo "calibration_root:=/tmp/cal real_time_factor:=0\` with the devel space sourced)."
-rm -rf "$root"
+echo
+awk -v h="$honesty" '$0 ~ h { on = 1 } on' "$sweeps"
+rm -rf "$root" "$sweeps"

@@ -80,7 +80,8 @@ void honesty(const std::string& dir, int seeds) {
       "difference / sigma median / 95th pct / worst | true difference RMS px median / worst |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   for (const char* name : {"robot.yaml", "robot_ideal.yaml", "fleet/robot_wide.yaml",
-                           "fleet/robot_p95.yaml", "fleet/robot_narrow.yaml"}) {
+                           "fleet/robot_p95.yaml", "fleet/robot_narrow.yaml",
+                           "fleet/robot_rational.yaml"}) {
     const sim::RobotConfig robot = sim::loadRobotConfig(dir + name);
     const sim::WorldConfig world = sim::loadWorldConfig(dir + "world.yaml");
     std::vector<double> ratio, lower_ratio, rms;

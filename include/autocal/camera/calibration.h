@@ -50,7 +50,10 @@ struct CalibrationOptions {
   /// simplest first (plumb_bob: k1 k2 | + p1 p2 | + k3).
   bool select_distortion_terms = true;
   /// kSignificance: start from all terms and drop the last group while none of its terms is
-  /// significant (|value| < min_term_significance · its standard deviation); 2–3 fits, fast.
+  /// significant (|value| < min_term_significance · its standard deviation) and, for a group of
+  /// several terms, the group as a whole is not (it lowers the RMS by no more than
+  /// model_rms_margin, or the corners' chi-square by less than min_term_significance² per term);
+  /// 2–3 fits, fast.
   /// kHoldout: the simplest set whose cross-validated held-out RMS is within selection_margin of
   /// the best; slower (a fit per fold and set).
   enum class Selection { kSignificance, kHoldout };

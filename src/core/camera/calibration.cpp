@@ -596,6 +596,34 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
           why += (why.empty() ? "" : ", ") + term_name(i) +
                  fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
         }
+        // Terms that trade against each other along a valley (rational_polynomial's k4..k6, the
+        // denominator of k1..k3) each have a large standard deviation even where together they
+        // are what the lens needs: a rational lens's corners, 0.136 px RMS with them fixed and
+        // 0.076 px with them free, with t 0.1-0.2 each. So a group is kept too when it lowers
+        // the RMS by more than model_rms_margin (beyond what explains the corners equally well)
+        // and the corners' chi-square by more than its terms at min_term_significance each would.
+        const size_t terms = sets[level].added.size();
+        if (!significant && terms > 1) {
+          size_t corners = 0;
+          for (const auto& view : img) corners += view.size();
+          size_t distortion_terms = 0;
+          for (size_t l = 0; l <= level; ++l) distortion_terms += sets[l].added.size();
+          const double free =
+              6.0 * static_cast<double>(img.size()) + 4.0 + static_cast<double>(distortion_terms);
+          const double residuals = 2.0 * static_cast<double>(corners);
+          const double variance =
+              f.rms_px * f.rms_px * static_cast<double>(corners) / std::max(1.0, residuals - free);
+          const double chi2_drop = static_cast<double>(corners) *
+                                   (simpler.rms_px * simpler.rms_px - f.rms_px * f.rms_px) /
+                                   std::max(variance, 1e-300);
+          const double min_chi2 = static_cast<double>(terms) * options.min_term_significance *
+                                  options.min_term_significance;
+          if (f.rms_px < simpler.rms_px / (1 + options.model_rms_margin) && chi2_drop >= min_chi2) {
+            significant = true;
+            why += fmt("; together they lower the RMS from %.4f to %.4f px (chi-square by %.0f)",
+                       simpler.rms_px, f.rms_px, chi2_drop);
+          }
+        }
       }
       result.selection_reason +=
           (result.selection_reason.empty() ? "" : "; ") + why + (significant ? ": kept" : verdict);

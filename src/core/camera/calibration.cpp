@@ -597,8 +597,8 @@ CalibrationResult calibrate(const std::vector<std::vector<cv::Point2f>>& views,
                  fmt(" = %.4g +- %.2g (t %.1f)", value, sigma, t);
         }
         // Terms that trade against each other along a valley (rational_polynomial's k4..k6, the
-        // denominator of k1..k3) each have a large standard deviation even where together they
-        // are what the lens needs: a rational lens's corners, 0.136 px RMS with them fixed and
+        // denominator's, against k1..k3 and each other) each have a large standard deviation even
+        // where together they are what the lens needs: a rational lens's corners, 0.136 px RMS with them fixed and
         // 0.076 px with them free, with t 0.1-0.2 each. So a group is kept too when it lowers
         // the RMS by more than model_rms_margin (beyond what explains the corners equally well)
         // and the corners' chi-square by more than its terms at min_term_significance each would.

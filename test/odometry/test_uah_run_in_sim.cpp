@@ -607,7 +607,7 @@ TEST(StraightRunTrim, TheStageCorrectsTheCameraYawForTheTurnOfTheHops) {
   mount.height_m = 0.105, mount.pitch_rad = 0.26, mount.yaw_rad = 0.01, mount.x_m = 0.055;
   const double yaw_per_turn = 0.34;
   auto writeExtrinsics = [&](bool sensitivity) {
-    std::vector<std::pair<std::string, double>> figures{{"drives", 4}, {"turns", 4}};
+    std::vector<std::pair<std::string, double>> figures{{"drives", 4}, {"passes", 3}, {"turns", 4}};
     if (sensitivity) {
       figures.emplace_back(extrinsics::kYawPerTurnKey, yaw_per_turn);
       figures.emplace_back(extrinsics::kStraightSpeedKey, 0.25);
@@ -652,6 +652,7 @@ TEST(StraightRunTrim, TheStageCorrectsTheCameraYawForTheTurnOfTheHops) {
   EXPECT_NEAR(pose.required<double>("height_m"), mount.height_m, 1e-9);
   EXPECT_NEAR(y.required<double>(extrinsics::kStraightTurnKey), turn_per_m, 1e-4);
   EXPECT_EQ(y.required<double>("drives"), 4);
+  EXPECT_EQ(y.required<double>("passes"), 3);
   const extrinsics::CameraMount moved =
       extrinsics::mountForStraightTurn(mount, yaw_per_turn, turn_per_m);
   const Eigen::Matrix3d H = extrinsics::readHomography(extrinsics_file);

@@ -409,7 +409,52 @@ TEST(WheelRunMountInSim, AYawLessSureThanTheLimitIsRefused) {
   EXPECT_EQ(run.extrinsicsResult(), nullptr);
   EXPECT_NE(run.extrinsicsFailure().find("the camera's yaw is uncertain"), std::string::npos)
       << run.extrinsicsFailure();
+  // Given up after every pass it may make (extrinsics_max_passes).
+  EXPECT_NE(run.extrinsicsFailure().find("(after " + std::to_string(o.extrinsics_max_passes) +
+                                         " passes)"),
+            std::string::npos)
+      << run.extrinsicsFailure();
   EXPECT_LE(sim::straightDriftM(robot, r.result, 0.25), 0.02);
+}
+
+// A mount that two passes of hops leave less sure than the limit gets more passes before it is
+// given up: on robot.yaml (backlash, static friction, late commands) two passes give the yaw a
+// standard deviation of 0.126 deg; against a lab's limit of 0.1 deg the stage hops on, and the
+// mount it then writes is within the targets by the truth. Held to two passes, the same run
+// refuses it.
+TEST(WheelRunMountInSim, AnUncertainMountGetsMorePassesBeforeItIsRefused) {
+  const sim::RobotConfig robot = robotConfig("robot.yaml");
+  const double deg = M_PI / 180;
+  for (const int max_passes : {4, 2}) {
+    wheels::WheelRunOptions o = optionsFor(robot, robot.breakaway_duty_left + 0.01);
+    o.extrinsics_spins = 4;
+    o.extrinsics_max_yaw_sigma_rad = 0.1 * deg;
+    o.extrinsics_max_passes = max_passes;
+    wheels::WheelRun run(o, robot.camera.truth);
+    const test::WheelsInSim r = test::runWheelsInSim(robot, defaultWorld(), run, {});
+    ASSERT_TRUE(r.done) << r.failure;
+    EXPECT_LE(sim::straightDriftM(robot, r.result, 0.25), 0.02);
+    const extrinsics::TagMountResult* x = run.extrinsicsResult();
+    if (max_passes == 2) {
+      EXPECT_EQ(x, nullptr);
+      EXPECT_NE(run.extrinsicsFailure().find("the camera's yaw is uncertain"), std::string::npos)
+          << run.extrinsicsFailure();
+      EXPECT_NE(run.extrinsicsFailure().find("(after 2 passes)"), std::string::npos)
+          << run.extrinsicsFailure();
+      continue;
+    }
+    ASSERT_NE(x, nullptr) << run.extrinsicsFailure();
+    const extrinsics::CameraInfoRectification camera = sim::trueCameraInfo(robot);
+    const sim::FloorError e = sim::floorError(
+        robot, camera.rectified, extrinsics::homographyFromMount(x->mount, camera.rectified));
+    std::printf("%d hops counted, yaw sigma %.3f deg: %s\n", x->straight, x->sigma.yaw_rad / deg,
+                sim::mountVersusTruth(e, x->mount, robot.camera).c_str());
+    EXPECT_GT(x->straight, o.extrinsics_passes * (o.extrinsics_drives - 1));  // more passes
+    EXPECT_LE(x->sigma.yaw_rad, o.extrinsics_max_yaw_sigma_rad);
+    EXPECT_LE(e.rms_m, 0.01);
+    EXPECT_LE(e.max_m, 0.02);
+    EXPECT_NEAR(x->mount.yaw_rad, robot.camera.yaw_rad, 0.5 * deg);
+  }
 }
 
 // The hops back are driven with the trim fitted forward, after a reversal: where the wheels differ
@@ -542,6 +587,20 @@ TEST(WheelRunOptions, ExtrinsicsPassesWithinOneToFive) {
     }
   }
   o.extrinsics_passes = 1;
+  EXPECT_NO_THROW(o.validate());
+  // The passes in all that a refused mount may have: 1 to 5 (at most extrinsics_passes: none
+  // added), so that extrinsics_passes alone can be set to 5.
+  for (int max_passes : {0, 6}) {
+    o.extrinsics_max_passes = max_passes;
+    try {
+      o.validate();
+      FAIL() << "no error for " << max_passes;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("extrinsics_max_passes"), std::string::npos) << e.what();
+    }
+  }
+  o.extrinsics_max_passes = 1;
+  o.extrinsics_passes = 5;
   EXPECT_NO_THROW(o.validate());
 }
 

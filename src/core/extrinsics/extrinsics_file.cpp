@@ -194,7 +194,7 @@ StraightTurnCorrection correctForStraightTurn(const std::string& path, double tu
   if (y.has("camera_pose_sigma")) sigma = readMount(y, "camera_pose_sigma");
   std::vector<std::pair<std::string, double>> figures;
   for (const char* key : {"plane_rms_m", "rejected_sightings", "turn_centre_rms_m",
-                          "yaw_spread_rad", "drives", "turns", kYawPerTurnKey,
+                          "yaw_spread_rad", "drives", "passes", "turns", kYawPerTurnKey,
                           kStraightSpeedKey}) {
     if (y.has(key)) figures.emplace_back(key, y.required<double>(key));
   }

@@ -61,6 +61,8 @@ void WheelRunOptions::validate() const {
     throw ConfigError("extrinsics_drives_back: must be within [0, 20]");
   if (extrinsics_passes < 1 || extrinsics_passes > 5)
     throw ConfigError("extrinsics_passes: must be within [1, 5]");
+  if (extrinsics_max_passes < 1 || extrinsics_max_passes > 5)
+    throw ConfigError("extrinsics_max_passes: must be within [1, 5]");
   if (extrinsics_spins > 0 && extrinsics_drive_m > 0 && extrinsics_drives > 0 &&
       (extrinsics_min_hops < 1 || extrinsics_min_hops > extrinsics_drives - 1)) {
     throw ConfigError(
@@ -442,8 +444,8 @@ void WheelRun::recordStill() {
   since_still_ = SinceStill::kNone;
 }
 
-void WheelRun::finishExtrinsics() {
-  extrinsics_done_ = true;
+void WheelRun::judgeMount() {
+  extrinsics_failure_.clear();
   try {
     extrinsics::TagMountOptions mount_options = options_.extrinsics;
     if (options_.extrinsics_drive_m > 0 && options_.extrinsics_drives > 0) {
@@ -619,12 +621,22 @@ void WheelRun::onMeasured(double now_s) {
           return;
         }
         startExtrinsicsDrive(now_s);
-      } else if (options_.extrinsics_drive_m > 0 &&
-                 options_.extrinsics_drives + options_.extrinsics_drives_back > 0 &&
-                 extrinsics_pass_ + 1 < options_.extrinsics_passes) {
-        startExtrinsicsReturn(now_s);
       } else {
-        finishExtrinsics();
+        const bool hops = options_.extrinsics_drive_m > 0 &&
+                          options_.extrinsics_drives + options_.extrinsics_drives_back > 0;
+        if (hops && extrinsics_pass_ + 1 < options_.extrinsics_passes) {
+          startExtrinsicsReturn(now_s);
+          return;
+        }
+        judgeMount();
+        if (hops && !extrinsics_failure_.empty() &&
+            extrinsics_pass_ + 1 < options_.extrinsics_max_passes) {
+          startExtrinsicsReturn(now_s);  // another pass before the mount is given up
+          return;
+        }
+        if (!extrinsics_failure_.empty() && extrinsics_pass_ > 0)
+          extrinsics_failure_ += " (after " + std::to_string(extrinsics_pass_ + 1) + " passes)";
+        extrinsics_done_ = true;
         startAlign(WheelRunStage::kLeave);
       }
       return;
@@ -992,9 +1004,10 @@ double WheelRun::progress() const {
     case WheelRunStage::kExtrinsics: {
       const int hops_per_pass = options_.extrinsics_drives + options_.extrinsics_drives_back;
       const int done = spins_done_ + extrinsics_pass_ * hops_per_pass + extrinsics_drives_done_;
-      return 0.8 + 0.05 * done /
-                       std::max(1, options_.extrinsics_spins +
-                                       options_.extrinsics_passes * hops_per_pass);
+      // Passes past extrinsics_passes (a mount refused so far) hold the progress below 0.85.
+      const int passes = std::max(options_.extrinsics_passes, extrinsics_pass_ + 1);
+      const int planned = options_.extrinsics_spins + passes * hops_per_pass;
+      return 0.8 + 0.05 * done / std::max(1, planned);
     }
     case WheelRunStage::kLeave:
       return 0.9;

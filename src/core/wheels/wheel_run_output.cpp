@@ -42,7 +42,7 @@ namespace {
 
 /// Writes the extrinsics file (and its ground view over `ground_frame` when there is one); its
 /// DONE figures.
-Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResult& x,
+Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResult& x, int passes,
                         double hop_speed_mps, const std::string& intrinsics_file,
                         const cv::Mat& ground_frame, std::string* log) {
   const extrinsics::CameraInfoRectification camera = extrinsics::loadRectification(intrinsics_file);
@@ -56,6 +56,7 @@ Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResul
                            {"turn_centre_rms_m", x.centre_rms_m},
                            {"yaw_spread_rad", x.yaw_spread_rad},
                            {"drives", static_cast<double>(x.straight)},
+                           {"passes", static_cast<double>(passes)},
                            {"turns", static_cast<double>(x.spins)},
                            // For the odometry stage, which finds how the hops turned.
                            {extrinsics::kYawPerTurnKey, x.yaw_per_turn_per_m},
@@ -75,14 +76,16 @@ Figures writeExtrinsics(const std::string& path, const extrinsics::TagMountResul
          formatNumber(m.roll_rad * 180 / M_PI, 3) + " deg, yaw " +
          formatNumber(m.yaw_rad * 180 / M_PI, 3) + " deg, " + formatNumber(1e3 * m.x_m, 4) +
          " mm ahead of the axle, " + formatNumber(1e3 * m.y_m, 4) + " mm left (" +
-         std::to_string(x.straight) + " drives, " + std::to_string(x.spins) + " turns)";
+         std::to_string(x.straight) + " drives in " + std::to_string(passes) + " passes, " +
+         std::to_string(x.spins) + " turns)";
   return {{"extrinsics_written", 1.0},
           {"camera_height_m", m.height_m},
           {"camera_pitch_rad", m.pitch_rad},
           {"camera_roll_rad", m.roll_rad},
           {"camera_yaw_rad", m.yaw_rad},
           {"camera_x_m", m.x_m},
-          {"camera_y_m", m.y_m}};
+          {"camera_y_m", m.y_m},
+          {"extrinsics_passes", static_cast<double>(passes)}};
 }
 
 }  // namespace
@@ -110,7 +113,7 @@ StageResult WheelRun::finish(const StageOutput& output) {
     std::string log;
     const Figures f =
         writeExtrinsics(extrinsics::extrinsicsPath(output.calibration_root, output.veh), *x,
-                        options_.drive_speed_mps, options_.intrinsics_file, ground_frame_, &log);
+                        extrinsics_pass_ + 1, options_.drive_speed_mps, options_.intrinsics_file, ground_frame_, &log);
     r.figures.insert(r.figures.end(), f.begin(), f.end());
     r.log += log;
   } else {

@@ -85,6 +85,7 @@ WheelCalibrationNodeOptions readOptions(const ros::NodeHandle& nh, const ros::No
   p.get("extrinsics_drives", r.extrinsics_drives);
   p.get("extrinsics_drives_back", r.extrinsics_drives_back);
   p.get("extrinsics_passes", r.extrinsics_passes);
+  p.get("extrinsics_max_passes", r.extrinsics_max_passes);
   p.get("extrinsics_min_hops", r.extrinsics_min_hops);
   p.get("extrinsics_max_floor_sigma_m", r.extrinsics_max_floor_sigma_m);
   p.get("extrinsics_max_yaw_sigma_rad", r.extrinsics_max_yaw_sigma_rad);

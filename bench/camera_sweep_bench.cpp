@@ -119,9 +119,9 @@ void honesty(const std::string& dir, int seeds) {
       rms.push_back(whole.rms_px);
       worst.push_back(whole.worst_px);
       const bool plumb_bob = robot.camera.truth.distortion_model == DistortionModel::kPlumbBob;
-      within_target += whole.unmapped == 0 && (plumb_bob ? whole.rms_px <= 0.25 &&
-                                                               whole.worst_px <= 0.6
-                                                         : whole.rms_px <= 0.5);
+      within_target +=
+          whole.unmapped == 0 &&
+          (plumb_bob ? whole.rms_px <= 0.25 && whole.worst_px <= 0.6 : whole.rms_px <= 0.5);
     }
     const auto within = [](const std::vector<double>& v) {
       return v.empty() ? std::nan("")
@@ -134,8 +134,8 @@ void honesty(const std::string& dir, int seeds) {
         "| %d of %d |\n",
         name, models.c_str(), done, seeds, within(ratio), within(lower_ratio),
         percentile(ratio, 0.5), percentile(ratio, 0.95), percentile(ratio, 1.0),
-        percentile(rms, 0.5), percentile(rms, 1.0), percentile(worst, 0.5),
-        percentile(worst, 1.0), within_target, seeds);
+        percentile(rms, 0.5), percentile(rms, 1.0), percentile(worst, 0.5), percentile(worst, 1.0),
+        within_target, seeds);
     std::fflush(stdout);
   }
 }

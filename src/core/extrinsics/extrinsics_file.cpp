@@ -193,9 +193,9 @@ StraightTurnCorrection correctForStraightTurn(const std::string& path, double tu
   std::optional<CameraMount> sigma;
   if (y.has("camera_pose_sigma")) sigma = readMount(y, "camera_pose_sigma");
   std::vector<std::pair<std::string, double>> figures;
-  for (const char* key : {"plane_rms_m", "rejected_sightings", "turn_centre_rms_m",
-                          "yaw_spread_rad", "drives", "passes", "turns", kYawPerTurnKey,
-                          kStraightSpeedKey}) {
+  for (const char* key :
+       {"plane_rms_m", "rejected_sightings", "turn_centre_rms_m", "yaw_spread_rad", "drives",
+        "passes", "turns", kYawPerTurnKey, kStraightSpeedKey}) {
     if (y.has(key)) figures.emplace_back(key, y.required<double>(key));
   }
   figures.emplace_back(kStraightTurnKey, turn_per_m);

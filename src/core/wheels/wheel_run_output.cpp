@@ -111,9 +111,9 @@ StageResult WheelRun::finish(const StageOutput& output) {
   if (options_.extrinsics_spins == 0) return r;
   if (const extrinsics::TagMountResult* x = extrinsicsResult()) {
     std::string log;
-    const Figures f =
-        writeExtrinsics(extrinsics::extrinsicsPath(output.calibration_root, output.veh), *x,
-                        extrinsics_pass_ + 1, options_.drive_speed_mps, options_.intrinsics_file, ground_frame_, &log);
+    const Figures f = writeExtrinsics(
+        extrinsics::extrinsicsPath(output.calibration_root, output.veh), *x, extrinsics_pass_ + 1,
+        options_.drive_speed_mps, options_.intrinsics_file, ground_frame_, &log);
     r.figures.insert(r.figures.end(), f.begin(), f.end());
     r.log += log;
   } else {
